@@ -1,1 +1,7 @@
-//! placeholder
+//! Everything FMI 2.0 for this project: the C types, the export glue the FMUs are
+//! built on, the import side the orchestrator uses, and modelDescription parsing.
+
+pub mod types;
+pub mod export;
+
+pub use types::Status;

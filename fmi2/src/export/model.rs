@@ -1,0 +1,131 @@
+//! The safe model interface an FMU crate implements.
+//!
+//! The export glue (`fmi2::export`) owns everything FMI-specific: the C ABI, the
+//! allowed-states table, time bookkeeping, logging, FMU-state snapshots. A model only
+//! sees validated calls: value references it declared, of the right type, set only in
+//! states where their causality/variability allows it.
+
+use crate::types::Status;
+
+/// FMI base type of a variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+    String,
+    Enumeration,
+}
+
+/// Causality as declared in the model description.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+/// Variability as declared in the model description.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// One scalar variable of the model, generated from `modelDescription/<Model>.xml`
+/// by the FMU crate's build script so the two never drift apart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VarSpec {
+    /// Full scalar name, e.g. `force[3]`.
+    pub name: &'static str,
+    pub value_reference: u32,
+    pub var_type: VarType,
+    pub causality: Causality,
+    pub variability: Variability,
+}
+
+/// A model-level failure. The glue logs `message` (prefixed with the function name
+/// and the instance) and returns `status` to the master.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub status: Status,
+    pub message: String,
+}
+
+impl ModelError {
+    /// An fmi2Error with the given message.
+    pub fn error(message: impl Into<String>) -> Self {
+        Self { status: Status::Error, message: message.into() }
+    }
+
+    /// An fmi2Discard with the given message (the step was not taken; the master may retry smaller).
+    pub fn discard(message: impl Into<String>) -> Self {
+        Self { status: Status::Discard, message: message.into() }
+    }
+}
+
+/// Result of a model operation.
+pub type ModelResult<T> = Result<T, ModelError>;
+
+/// A co-simulation model behind the FMI 2.0 C ABI.
+///
+/// `Clone` backs fmi2GetFMUstate/fmi2SetFMUstate; `save`/`restore` back the
+/// serialized form (the glue adds a versioned, self-identifying header around it).
+pub trait Model: Clone + Send + 'static {
+    /// `modelIdentifier` of the CoSimulation element.
+    const MODEL_IDENTIFIER: &'static str;
+    /// `guid` attribute of the model description; Instantiate rejects any other.
+    const GUID: &'static str;
+    /// Every scalar variable, from the model description.
+    const VARIABLES: &'static [VarSpec];
+    /// Whether the model accepts a different communication step size on each doStep.
+    const CAN_HANDLE_VARIABLE_STEP: bool;
+
+    /// A model with every variable at its start value.
+    fn new() -> Self;
+
+    /// Reads a Real (only called with a declared Real value reference).
+    fn get_real(&self, vr: u32) -> f64;
+    /// Writes a Real (only called where its causality/variability allows it in the current
+    /// state). Rejects invalid values, e.g. non-finite inputs, with a message naming the variable.
+    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()>;
+
+    /// Reads an Integer or Enumeration.
+    fn get_integer(&self, vr: u32) -> i32 {
+        let _ = vr;
+        0
+    }
+    /// Writes an Integer or Enumeration.
+    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
+        let _ = value;
+        Err(ModelError::error(format!("value reference {vr} is not a settable Integer")))
+    }
+    /// Reads a Boolean.
+    fn get_boolean(&self, vr: u32) -> bool {
+        let _ = vr;
+        false
+    }
+    /// Writes a Boolean.
+    fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
+        let _ = value;
+        Err(ModelError::error(format!("value reference {vr} is not a settable Boolean")))
+    }
+
+    /// Called by fmi2ExitInitializationMode at `start_time`: validate parameters, build
+    /// the internal state, and make every output consistent with the inputs at that time.
+    fn initialize(&mut self, start_time: f64) -> ModelResult<()>;
+
+    /// Advances from `t` (the communication point, exactly as the master passed it) by `h > 0`.
+    fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()>;
+
+    /// Appends the complete dynamic state (parameters included) as plain bytes, pointer-free.
+    fn save(&self, out: &mut Vec<u8>);
+    /// Rebuilds the state written by `save` (the glue has checked header, model and version).
+    fn restore(&mut self, bytes: &[u8]) -> ModelResult<()>;
+}
