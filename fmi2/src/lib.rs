@@ -1,7 +1,11 @@
 //! Everything FMI 2.0 for this project: the C types, the export glue the FMUs are
 //! built on, the import side the orchestrator uses, and modelDescription parsing.
 
-pub mod types;
 pub mod export;
+pub mod md;
+pub mod types;
+
+#[cfg(feature = "import")]
+pub mod import;
 
 pub use types::Status;

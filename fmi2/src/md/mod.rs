@@ -1,0 +1,1 @@
+//! modelDescription.xml: typed structs, parsing and validation.
