@@ -1,0 +1,266 @@
+//! Rigid-body dynamics in task space: M(x) ν̇ + b(x, ν) = Jᵀ(τ + friction) (DESIGN.md §3).
+//!
+//! Generalised coordinates are the platform pose with the world twist ν = (v, ω). Each leg is
+//! a cylinder hinged at the base and a rod ball-jointed to the platform, neither spinning
+//! about the leg axis. The mass matrix is closed form; the bias b comes from per-body
+//! Newton–Euler at zero acceleration, so the two are derived independently and the tests
+//! can check one against the other.
+
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+
+use crate::kinematics::{LEGS, LegGeometry, Mechanism, Pose, skew};
+
+/// Everything the dynamics needs at one state, computed once.
+#[derive(Debug, Clone, Copy)]
+pub struct DynamicsTerms {
+    pub legs: LegGeometry,
+    /// Task-space mass matrix M(x).
+    pub mass: Matrix6<f64>,
+    /// Bias b(x, ν): velocity-product and gravity terms.
+    pub bias: Vector6<f64>,
+    /// Leg Jacobian J(x).
+    pub jacobian: Matrix6<f64>,
+    /// Leg rates l̇ = J ν.
+    pub leg_rates: Vector6<f64>,
+}
+
+/// The joint-space form of paper eq. (1): M(l) l̈ + C(l, l̇) l̇ + G(l) = τ.
+#[derive(Debug, Clone, Copy)]
+pub struct JointSpaceDynamics {
+    /// M(l) = J⁻ᵀ M(x) J⁻¹.
+    pub mass: Matrix6<f64>,
+    /// C(l, l̇) l̇ = J⁻ᵀ (b(x, ν) − b(x, 0) − M(x) J⁻¹ J̇ν).
+    pub coriolis: Vector6<f64>,
+    /// G(l) = J⁻ᵀ b(x, 0).
+    pub gravity: Vector6<f64>,
+}
+
+/// A singular Jacobian or mass matrix.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum DynamicsError {
+    #[error("the leg Jacobian is singular at this pose")]
+    SingularJacobian,
+    #[error("the mass matrix is not positive definite at this pose")]
+    SingularMass,
+}
+
+fn split(v: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    (
+        v.fixed_rows::<3>(0).into_owned(),
+        v.fixed_rows::<3>(3).into_owned(),
+    )
+}
+
+impl Mechanism {
+    /// Effective 3×3 mass of one leg seen at its platform joint:
+    /// M_L = m_r n nᵀ + [(m_c d_c² + I_c + m_r (l − d_r)² + I_r) / l²](I − n nᵀ).
+    #[inline]
+    fn leg_mass(&self, n: &Vector3<f64>, l: f64) -> Matrix3<f64> {
+        let p = &self.params.legs;
+        let nn = n * n.transpose();
+        let transverse = (p.cylinder_mass * p.cylinder_com.powi(2)
+            + p.cylinder_inertia
+            + p.rod_mass * (l - p.rod_com).powi(2)
+            + p.rod_inertia)
+            / (l * l);
+        nn * p.rod_mass + (Matrix3::identity() - nn) * transverse
+    }
+
+    /// Closed-form task-space mass matrix M(x) = M_platform + Σ G_iᵀ M_L,i G_i with
+    /// G_i = [I, −[r_i]×].
+    pub fn mass_matrix(
+        &self,
+        legs: &LegGeometry,
+        q_world: &nalgebra::UnitQuaternion<f64>,
+    ) -> Matrix6<f64> {
+        let rot = q_world.to_rotation_matrix();
+        let inertia_world = rot * self.inertia_platform * rot.transpose();
+        let mut m = Matrix6::zeros();
+        let mut tt = Matrix3::identity() * self.params.platform.mass;
+        let mut tr = Matrix3::zeros();
+        let mut rr = inertia_world;
+        for i in 0..LEGS {
+            let ml = self.leg_mass(&legs.n_world[i], legs.length[i]);
+            let rx = skew(&legs.r_world[i]);
+            let ml_rx = ml * rx;
+            tt += ml;
+            tr -= ml_rx;
+            rr -= rx * ml_rx;
+        }
+        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&tt);
+        m.fixed_view_mut::<3, 3>(0, 3).copy_from(&tr);
+        m.fixed_view_mut::<3, 3>(3, 0).copy_from(&tr.transpose());
+        m.fixed_view_mut::<3, 3>(3, 3).copy_from(&rr);
+        m
+    }
+
+    /// Force exerted by leg `i` on the platform at its joint, from per-body Newton–Euler of
+    /// the cylinder and rod, given the joint's motion and the axial force `tau` (actuator plus
+    /// friction, positive extends).
+    fn leg_force_on_platform(
+        &self,
+        legs: &LegGeometry,
+        i: usize,
+        sd: &Vector3<f64>,
+        sdd: &Vector3<f64>,
+        tau: f64,
+    ) -> Vector3<f64> {
+        let p = &self.params.legs;
+        let g = self.params.gravity;
+        let n = legs.n_world[i];
+        let l = legs.length[i];
+        let ld = n.dot(sd);
+        // Leg angular velocity and acceleration (no spin about n).
+        let w_leg = n.cross(sd) / l;
+        let a_leg = (n.cross(sdd) - w_leg * (2.0 * ld)) / l;
+        let nd = (sd - n * ld) / l;
+        let ndd = a_leg.cross(&n) + w_leg.cross(&nd);
+        let acc_cyl = ndd * p.cylinder_com;
+        let acc_rod = sdd - ndd * p.rod_com;
+        let lever_rod = l - p.rod_com;
+        // Moment balance of the whole leg about the base joint gives n × F (F: platform on rod).
+        let n_cross_f = (n.cross(&acc_cyl) * (p.cylinder_mass * p.cylinder_com)
+            + n.cross(&acc_rod) * (p.rod_mass * lever_rod)
+            + a_leg * (p.cylinder_inertia + p.rod_inertia)
+            + n.cross(&Vector3::z())
+                * (g * (p.cylinder_mass * p.cylinder_com + p.rod_mass * lever_rod)))
+            / l;
+        let f_perp = n_cross_f.cross(&n);
+        // Axial balance of the rod.
+        let f_axial = p.rod_mass * (acc_rod.dot(&n) + g * n.z) - tau;
+        -(f_perp + n * f_axial)
+    }
+
+    /// Newton–Euler residual M(x) ν̇ + b(x, ν) − Jᵀ τ for the platform with all six legs.
+    ///
+    /// `tau` is the total axial force of each leg (actuator plus friction).
+    pub fn residual(
+        &self,
+        pose: &Pose,
+        legs: &LegGeometry,
+        twist: &Vector6<f64>,
+        accel: &Vector6<f64>,
+        tau: &Vector6<f64>,
+    ) -> Vector6<f64> {
+        let (v, w) = split(twist);
+        let (a, dw) = split(accel);
+        let rot = pose.q_world.to_rotation_matrix();
+        let inertia_world = rot * self.inertia_platform * rot.transpose();
+        let m = self.params.platform.mass;
+        let mut force = (a + Vector3::z() * self.params.gravity) * m;
+        let mut moment = inertia_world * dw + w.cross(&(inertia_world * w));
+        for i in 0..LEGS {
+            let r = legs.r_world[i];
+            let sd = v + w.cross(&r);
+            let sdd = a + dw.cross(&r) + w.cross(&w.cross(&r));
+            let f = self.leg_force_on_platform(legs, i, &sd, &sdd, tau[i]);
+            force -= f;
+            moment -= r.cross(&f);
+        }
+        Vector6::new(force.x, force.y, force.z, moment.x, moment.y, moment.z)
+    }
+
+    /// Bias b(x, ν) = residual at zero acceleration and zero force.
+    pub fn bias(&self, pose: &Pose, legs: &LegGeometry, twist: &Vector6<f64>) -> Vector6<f64> {
+        self.residual(pose, legs, twist, &Vector6::zeros(), &Vector6::zeros())
+    }
+
+    /// M, b, J and l̇ at one state.
+    pub fn terms(&self, pose: &Pose, twist: &Vector6<f64>) -> DynamicsTerms {
+        let legs = self.inverse_kinematics(pose);
+        let jacobian = legs.jacobian();
+        DynamicsTerms {
+            mass: self.mass_matrix(&legs, &pose.q_world),
+            bias: self.bias(pose, &legs, twist),
+            leg_rates: jacobian * twist,
+            jacobian,
+            legs,
+        }
+    }
+
+    /// Friction of every leg at leg rates `ldot`.
+    pub fn friction(&self, ldot: &Vector6<f64>) -> Vector6<f64> {
+        ldot.map(|x| self.params.friction.force(x))
+    }
+
+    /// Forward dynamics ν̇ = M⁻¹ (Jᵀ(τ + friction(l̇)) − b), with `tau` the actuator forces.
+    pub fn forward_dynamics(
+        &self,
+        pose: &Pose,
+        twist: &Vector6<f64>,
+        tau: &Vector6<f64>,
+    ) -> Result<Vector6<f64>, DynamicsError> {
+        let t = self.terms(pose, twist);
+        let total = tau + self.friction(&t.leg_rates);
+        let rhs = t.jacobian.transpose() * total - t.bias;
+        t.mass
+            .cholesky()
+            .map(|c| c.solve(&rhs))
+            .ok_or(DynamicsError::SingularMass)
+    }
+
+    /// Inverse dynamics τ = J⁻ᵀ (M ν̇ + b): the actuator forces that produce `accel`,
+    /// ignoring friction (the feedforward of DESIGN.md §4 uses a frictionless nominal model).
+    pub fn inverse_dynamics(
+        &self,
+        pose: &Pose,
+        twist: &Vector6<f64>,
+        accel: &Vector6<f64>,
+    ) -> Result<Vector6<f64>, DynamicsError> {
+        let t = self.terms(pose, twist);
+        let wrench = t.mass * accel + t.bias;
+        t.jacobian
+            .transpose()
+            .lu()
+            .solve(&wrench)
+            .ok_or(DynamicsError::SingularJacobian)
+    }
+
+    /// The paper's joint-space form, eq. (1), derived from the task-space one.
+    pub fn joint_space(
+        &self,
+        pose: &Pose,
+        twist: &Vector6<f64>,
+    ) -> Result<JointSpaceDynamics, DynamicsError> {
+        let t = self.terms(pose, twist);
+        let j_inv = t
+            .jacobian
+            .try_inverse()
+            .ok_or(DynamicsError::SingularJacobian)?;
+        let j_inv_t = j_inv.transpose();
+        let gravity_task = self.bias(pose, &t.legs, &Vector6::zeros());
+        let jdot_nu = t.legs.leg_accelerations(twist, &Vector6::zeros());
+        Ok(JointSpaceDynamics {
+            mass: j_inv_t * t.mass * j_inv,
+            coriolis: j_inv_t * (t.bias - gravity_task - t.mass * (j_inv * jdot_nu)),
+            gravity: j_inv_t * gravity_task,
+        })
+    }
+
+    /// Kinetic energy ½ νᵀ M ν, J.
+    pub fn kinetic_energy(&self, pose: &Pose, twist: &Vector6<f64>) -> f64 {
+        let legs = self.inverse_kinematics(pose);
+        0.5 * twist.dot(&(self.mass_matrix(&legs, &pose.q_world) * twist))
+    }
+
+    /// Gravitational potential energy of platform, cylinders and rods (zero at z = 0), J.
+    pub fn potential_energy(&self, pose: &Pose) -> f64 {
+        let legs = self.inverse_kinematics(pose);
+        let p = &self.params.legs;
+        let g = self.params.gravity;
+        let mut v = self.params.platform.mass * g * pose.p_world.z;
+        for i in 0..LEGS {
+            let n = legs.n_world[i];
+            let s_z = self.b_world[i].z + legs.leg_world[i].z;
+            v += g
+                * (p.cylinder_mass * (self.b_world[i].z + p.cylinder_com * n.z)
+                    + p.rod_mass * (s_z - p.rod_com * n.z));
+        }
+        v
+    }
+
+    /// Actuator forces that hold `pose` at rest (inverse dynamics at zero twist and acceleration).
+    pub fn static_forces(&self, pose: &Pose) -> Result<Vector6<f64>, DynamicsError> {
+        self.inverse_dynamics(pose, &Vector6::zeros(), &Vector6::zeros())
+    }
+}

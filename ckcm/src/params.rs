@@ -1,0 +1,235 @@
+//! Mechanism parameters, one struct per concern.
+//!
+//! Values marked "Table 1" are the paper's; the others are this project's own choices
+//! (DESIGN.md §3) and documented as such.
+
+use nalgebra::Vector3;
+
+/// Where the twelve spherical joints sit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Geometry {
+    /// Radius of the base joint circle, m. Default 0.36 (Table 1).
+    pub base_radius: f64,
+    /// Radius of the platform joint circle, m. Default 0.27 (Table 1).
+    pub platform_radius: f64,
+    /// Height of the platform frame {A} above the base frame {B} at home, m. Default 0.5 (Table 1).
+    pub home_height: f64,
+    /// Half-separation θB of a base joint pair, rad. Default 2.5° (Table 1).
+    pub base_joint_offset: f64,
+    /// Half-separation θA of a platform joint pair, rad. Default 10° (Table 1).
+    pub platform_joint_offset: f64,
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Self {
+            base_radius: 0.36,
+            platform_radius: 0.27,
+            home_height: 0.5,
+            base_joint_offset: 2.5_f64.to_radians(),
+            platform_joint_offset: 10.0_f64.to_radians(),
+        }
+    }
+}
+
+/// The moving platform, a rigid body whose centre of mass is the frame {A} origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Platform {
+    /// Mass, kg. Default 4.92 (Table 1).
+    pub mass: f64,
+    /// Principal inertia (Ixx, Iyy, Izz) about the centre of mass in {A}, kg·m².
+    /// Default (0.09, 0.09, 0.18) (Table 1).
+    pub inertia: Vector3<f64>,
+}
+
+impl Default for Platform {
+    fn default() -> Self {
+        Self {
+            mass: 4.92,
+            inertia: Vector3::new(0.09, 0.09, 0.18),
+        }
+    }
+}
+
+/// One leg: a cylinder hinged at the base and a rod (piston) ball-jointed to the platform,
+/// neither spinning about the leg axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Legs {
+    /// Cylinder mass, kg. Default 10.29 (Table 1).
+    pub cylinder_mass: f64,
+    /// Distance of the cylinder's centre of mass from the base joint, along the leg, m. Default 0.20 (project).
+    pub cylinder_com: f64,
+    /// Cylinder transverse inertia about its centre of mass, kg·m². Default 0.1395 (project).
+    pub cylinder_inertia: f64,
+    /// Rod mass, kg. Default 1.0 (project).
+    pub rod_mass: f64,
+    /// Distance of the rod's centre of mass from the platform joint, along the leg, m. Default 0.15 (project).
+    pub rod_com: f64,
+    /// Rod transverse inertia about its centre of mass, kg·m². Default 0.0076 (project).
+    pub rod_inertia: f64,
+}
+
+impl Default for Legs {
+    fn default() -> Self {
+        Self {
+            cylinder_mass: 10.29,
+            cylinder_com: 0.20,
+            cylinder_inertia: 0.1395,
+            rod_mass: 1.0,
+            rod_com: 0.15,
+            rod_inertia: 0.0076,
+        }
+    }
+}
+
+/// Actuator friction: −viscous·l̇ − coulomb·tanh(l̇ / velocity), acting along each leg.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Friction {
+    /// Viscous coefficient, N·s/m. Default 100 (project).
+    pub viscous: f64,
+    /// Coulomb level, N. Default 20 (project).
+    pub coulomb: f64,
+    /// Velocity scale of the tanh smoothing, m/s. Default 0.02 (project).
+    pub velocity: f64,
+}
+
+impl Default for Friction {
+    fn default() -> Self {
+        Self {
+            viscous: 100.0,
+            coulomb: 20.0,
+            velocity: 0.02,
+        }
+    }
+}
+
+impl Friction {
+    /// No friction at all.
+    pub const NONE: Friction = Friction {
+        viscous: 0.0,
+        coulomb: 0.0,
+        velocity: 0.02,
+    };
+
+    /// Friction force on one leg at leg rate `ldot`, N (opposes the motion).
+    #[inline]
+    pub fn force(&self, ldot: f64) -> f64 {
+        -self.viscous * ldot - self.coulomb * (ldot / self.velocity).tanh()
+    }
+}
+
+/// All parameters of the mechanism.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    pub geometry: Geometry,
+    pub platform: Platform,
+    pub legs: Legs,
+    pub friction: Friction,
+    /// Gravitational acceleration along −z of {B}, m/s². Default 9.81.
+    pub gravity: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            geometry: Geometry::default(),
+            platform: Platform::default(),
+            legs: Legs::default(),
+            friction: Friction::default(),
+            gravity: 9.81,
+        }
+    }
+}
+
+impl Params {
+    /// The controller's nominal model (DESIGN.md §4): the plant's defaults without the rod
+    /// and without friction. The mismatch is the repeating disturbance learning removes.
+    pub fn nominal() -> Self {
+        Self {
+            legs: Legs {
+                rod_mass: 0.0,
+                rod_inertia: 0.0,
+                ..Legs::default()
+            },
+            friction: Friction::NONE,
+            ..Self::default()
+        }
+    }
+}
+
+/// A rejected parameter, naming the field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("parameter `{field}` = {value} is not finite")]
+    NotFinite { field: &'static str, value: f64 },
+    #[error("parameter `{field}` = {value} must be positive")]
+    NotPositive { field: &'static str, value: f64 },
+    #[error("parameter `{field}` = {value} must not be negative")]
+    Negative { field: &'static str, value: f64 },
+    #[error("parameter `{field}` = {value} is out of range: {reason}")]
+    OutOfRange {
+        field: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+}
+
+impl Params {
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let g = &self.geometry;
+        let positive = [
+            ("base_radius", g.base_radius),
+            ("platform_radius", g.platform_radius),
+            ("home_height", g.home_height),
+            ("platform_mass", self.platform.mass),
+            ("platform_inertia[1]", self.platform.inertia.x),
+            ("platform_inertia[2]", self.platform.inertia.y),
+            ("platform_inertia[3]", self.platform.inertia.z),
+            ("cylinder_mass", self.legs.cylinder_mass),
+            ("friction_velocity", self.friction.velocity),
+        ];
+        let non_negative = [
+            ("base_joint_offset", g.base_joint_offset),
+            ("platform_joint_offset", g.platform_joint_offset),
+            ("cylinder_com", self.legs.cylinder_com),
+            ("cylinder_inertia", self.legs.cylinder_inertia),
+            ("rod_mass", self.legs.rod_mass),
+            ("rod_com", self.legs.rod_com),
+            ("rod_inertia", self.legs.rod_inertia),
+            ("viscous_friction", self.friction.viscous),
+            ("coulomb_friction", self.friction.coulomb),
+            ("gravity", self.gravity),
+        ];
+        for &(field, value) in positive.iter().chain(non_negative.iter()) {
+            if !value.is_finite() {
+                return Err(ParamError::NotFinite { field, value });
+            }
+        }
+        for (field, value) in positive {
+            if value <= 0.0 {
+                return Err(ParamError::NotPositive { field, value });
+            }
+        }
+        for (field, value) in non_negative {
+            if value < 0.0 {
+                return Err(ParamError::Negative { field, value });
+            }
+        }
+        // Pairs at 120°k ± θ: θ = 0 makes two legs share a joint, θ = 60° merges neighbouring pairs.
+        let sixty = 60f64.to_radians();
+        for (field, value) in [
+            ("base_joint_offset", g.base_joint_offset),
+            ("platform_joint_offset", g.platform_joint_offset),
+        ] {
+            if value <= 1e-6 || value >= sixty - 1e-6 {
+                return Err(ParamError::OutOfRange {
+                    field,
+                    value,
+                    reason: "joint pairs coincide unless 0 < offset < 60°",
+                });
+            }
+        }
+        Ok(())
+    }
+}
