@@ -7,6 +7,7 @@
 //! velocities are the world twist ν = (v, ω).
 #![forbid(unsafe_code)]
 
+pub mod closed_loop;
 pub mod control;
 pub mod dynamics;
 pub mod integrate;

@@ -1,0 +1,59 @@
+//! The coupled plant + controller loop without any FMI layer, in the Gauss–Seidel order of
+//! DESIGN.md §6. It is the floor the co-simulation is benchmarked against, and lets tests
+//! study learning without building FMUs.
+
+use nalgebra::Vector6;
+
+use crate::control::{ControlInput, ControlOutput, Hlcs};
+use crate::dynamics::DynamicsError;
+use crate::integrate::{IntegrationError, Integrator, State};
+use crate::kinematics::Mechanism;
+use crate::trajectory::Trajectory;
+
+/// Failure of one closed-loop trial, with the sample where it happened.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum TrialError {
+    #[error("controller failed at t = {t} s: {source}")]
+    Controller { t: f64, source: DynamicsError },
+    #[error("plant failed at t = {t} s: {source}")]
+    Plant { t: f64, source: IntegrationError },
+}
+
+/// One trial of `steps` samples of period `h` from rest at the trajectory's start.
+///
+/// `memory` holds u_k for every sample (read), `memory_next` receives u_{k+1} (written);
+/// `observe(n, state_before_step, output)` sees each sample.
+#[allow(clippy::too_many_arguments)]
+pub fn run_trial(
+    plant: &Mechanism,
+    integrator: &mut Integrator,
+    controller: &mut Hlcs,
+    trajectory: &Trajectory,
+    h: f64,
+    memory: &[Vector6<f64>],
+    memory_next: &mut [Vector6<f64>],
+    mut observe: impl FnMut(usize, &State, &ControlOutput),
+) -> Result<State, TrialError> {
+    let mut state = State::at_rest(trajectory.sample(0.0).pose);
+    controller.reset();
+    let steps = memory.len().min(memory_next.len());
+    for n in 0..steps {
+        let t = n as f64 * h;
+        let legs = plant.inverse_kinematics(&state.pose);
+        let input = ControlInput {
+            length: legs.length,
+            velocity: legs.leg_rates(&state.twist),
+            memory: memory[n],
+        };
+        let reference = trajectory.sample(t);
+        let out = controller
+            .step(&reference, &input, h)
+            .map_err(|source| TrialError::Controller { t, source })?;
+        memory_next[n] = out.memory_next;
+        observe(n, &state, &out);
+        integrator
+            .advance(plant, &mut state, &out.force, h)
+            .map_err(|source| TrialError::Plant { t, source })?;
+    }
+    Ok(state)
+}
