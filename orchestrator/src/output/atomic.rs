@@ -1,0 +1,181 @@
+//! Atomic replacement of a file: write a temporary sibling, make it durable, rename it over the
+//! target. Rename within one directory is atomic on POSIX and on NTFS, which is why the
+//! temporary file must live next to the target rather than in the system temp directory.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::OutputError;
+
+/// Distinguishes temporary files of concurrent writers within one process (threads writing
+/// different trials, or the same file twice).
+static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `path` atomically: creates `<dir>/.<name>.tmp-<pid>-<n>`, calls `write` with a
+/// buffered writer on it, flushes and fsyncs it, then renames it over `path`.
+///
+/// On any error (including a panic inside `write`) the temporary file is removed and the
+/// previous content of `path`, if any, is left untouched. Errors name `path`, not the
+/// temporary file, because that is the file the user asked for. The new file gets default
+/// permissions; those of a replaced file are not carried over.
+pub fn write_atomic<F>(path: &Path, write: F) -> Result<(), OutputError>
+where
+    F: FnOnce(&mut dyn Write) -> io::Result<()>,
+{
+    write_atomic_inner(path, write).map_err(|source| OutputError::Io {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+fn write_atomic_inner<F>(path: &Path, write: F) -> io::Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> io::Result<()>,
+{
+    let name = path
+        .file_name()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path does not name a file"))?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut temp_name = std::ffi::OsString::from(".");
+    temp_name.push(name);
+    temp_name.push(format!(
+        ".tmp-{}-{}",
+        std::process::id(),
+        NEXT_TEMP.fetch_add(1, Ordering::Relaxed)
+    ));
+    let temp_path = dir.join(temp_name);
+
+    let file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&temp_path)?;
+    let guard = TempFile(Some(temp_path));
+
+    let mut out = BufWriter::new(file);
+    write(&mut out)?;
+    let file = out.into_inner().map_err(io::IntoInnerError::into_error)?;
+    file.sync_all()?;
+    drop(file);
+
+    fs::rename(guard.path(), path)?;
+    guard.disarm();
+    sync_dir(dir);
+    Ok(())
+}
+
+/// Makes the rename itself durable. Best effort: the new file is already complete and in
+/// place, and some platforms or file systems cannot open or fsync a directory.
+fn sync_dir(dir: &Path) {
+    if !cfg!(unix) {
+        return;
+    }
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// Removes the temporary file when dropped, unless it was renamed into place. A drop guard
+/// (rather than explicit cleanup on each error path) also covers a panicking writer.
+struct TempFile(Option<PathBuf>);
+
+impl TempFile {
+    fn path(&self) -> &Path {
+        self.0
+            .as_deref()
+            .expect("temporary path present until disarmed")
+    }
+
+    fn disarm(mut self) {
+        self.0 = None;
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if let Some(p) = self.0.take() {
+            let _ = fs::remove_file(p);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir_entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn writes_content_and_replaces_previous() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.txt");
+        write_atomic(&path, |w| w.write_all(b"first")).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"first");
+        write_atomic(&path, |w| w.write_all(b"second")).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"second");
+        assert_eq!(dir_entries(dir.path()), ["out.txt"]);
+    }
+
+    #[test]
+    fn failing_writer_keeps_previous_file_and_no_temp() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("keep.csv");
+        fs::write(&path, b"old content").unwrap();
+        let err = write_atomic(&path, |w| {
+            w.write_all(b"partial")?;
+            Err(io::Error::other("disk on fire"))
+        })
+        .unwrap_err();
+        assert_eq!(fs::read(&path).unwrap(), b"old content");
+        assert_eq!(dir_entries(dir.path()), ["keep.csv"]);
+        assert_eq!(err.path(), path);
+        let msg = err.to_string();
+        assert!(msg.contains("keep.csv"), "{msg}");
+        let OutputError::Io { source, .. } = err else {
+            panic!("expected Io, got {err:?}")
+        };
+        assert_eq!(source.to_string(), "disk on fire");
+    }
+
+    #[test]
+    fn panicking_writer_leaves_no_temp() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.txt");
+        let result = std::panic::catch_unwind(|| {
+            let _ = write_atomic(&path, |w| {
+                w.write_all(b"x")?;
+                panic!("writer bug")
+            });
+        });
+        assert!(result.is_err());
+        assert!(dir_entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn missing_directory_is_an_error_naming_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no-such-dir").join("f.txt");
+        let err = write_atomic(&path, |w| w.write_all(b"x")).unwrap_err();
+        assert!(err.to_string().contains("f.txt"), "{err}");
+    }
+
+    #[test]
+    fn path_without_file_name_is_rejected() {
+        let err = write_atomic(Path::new("/"), |w| w.write_all(b"x")).unwrap_err();
+        let OutputError::Io { source, .. } = err else {
+            panic!("expected Io, got {err:?}")
+        };
+        assert_eq!(source.kind(), io::ErrorKind::InvalidInput);
+    }
+}

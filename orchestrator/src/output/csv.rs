@@ -1,0 +1,357 @@
+//! CSV export and import of recordings, and generic summary tables.
+//!
+//! The `csv` crate does the quoting and parsing; only number formatting is done here, because
+//! recordings must read back bit-exactly (`--resume` continues from stored learning memory).
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{self, BufReader, Write};
+use std::path::Path;
+
+use ::csv::{ErrorKind, ReaderBuilder, StringRecord, Writer};
+
+use super::{OutputError, Recording, write_atomic};
+
+/// A file format for recordings. Behind a trait so new formats can be added without touching
+/// the code that decides what to record and where.
+pub trait Exporter {
+    /// File name extension without the dot, e.g. `"csv"`.
+    fn extension(&self) -> &'static str;
+    /// Serialises `rec` into `w`. Fails with [`io::ErrorKind::InvalidData`] if the columns of
+    /// `rec` are not all as long as its time vector.
+    fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()>;
+}
+
+/// Comma-separated values: header `time,<names...>`, one row per sample, every number in the
+/// shortest form that parses back to the identical `f64`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CsvExporter;
+
+impl Exporter for CsvExporter {
+    fn extension(&self) -> &'static str {
+        "csv"
+    }
+
+    fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
+        if let Some(message) = rec.shape_error() {
+            return Err(io::Error::new(io::ErrorKind::InvalidData, message));
+        }
+        let mut out = Writer::from_writer(w);
+        out.write_field("time")?;
+        for name in &rec.names {
+            out.write_field(name)?;
+        }
+        out.write_record(None::<&[u8]>)?;
+        // One reused buffer for all numbers: a recording has ~10^5 rows of ~20 fields.
+        let mut buf = String::with_capacity(32);
+        for (row, &t) in rec.time.iter().enumerate() {
+            write_number(&mut out, &mut buf, t)?;
+            for column in &rec.columns {
+                write_number(&mut out, &mut buf, column[row])?;
+            }
+            out.write_record(None::<&[u8]>)?;
+        }
+        out.flush()
+    }
+}
+
+fn write_number<W: Write>(out: &mut Writer<W>, buf: &mut String, v: f64) -> io::Result<()> {
+    buf.clear();
+    format_f64(buf, v);
+    out.write_field(buf.as_bytes())?;
+    Ok(())
+}
+
+/// Appends `v` in the shortest round-trip form. Both `{}` and `{:e}` produce the shortest
+/// digits that parse back exactly; positional notation is used for ordinary magnitudes because
+/// it is easier to read, scientific for the rest, because `{}` would spell 1e-300 with 300
+/// zeros. (This avoids a direct dependency on `ryu` for the same result.)
+fn format_f64(buf: &mut String, v: f64) {
+    let magnitude = v.abs();
+    let positional = magnitude == 0.0 || !v.is_finite() || (1e-5..1e16).contains(&magnitude);
+    // Writing to a String cannot fail.
+    let _ = if positional {
+        write!(buf, "{v}")
+    } else {
+        write!(buf, "{v:e}")
+    };
+}
+
+/// Writes `rec` to `path` atomically in the format of `exporter`. An inconsistent recording
+/// is reported as [`OutputError::Io`] with kind `InvalidData`, and `path` is left untouched.
+pub fn write_recording(
+    path: &Path,
+    rec: &Recording,
+    exporter: &dyn Exporter,
+) -> Result<(), OutputError> {
+    write_atomic(path, |w| exporter.write(rec, w))
+}
+
+/// Reads a CSV written by [`CsvExporter`] (used by `--resume` and tests). The first column
+/// must be `time`; every field must parse as `f64` (`NaN`, `inf`, `-inf` included). Errors
+/// name the file and the 1-based line.
+pub fn read_recording_csv(path: &Path) -> Result<Recording, OutputError> {
+    let file = File::open(path).map_err(|source| OutputError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let mut reader = ReaderBuilder::new()
+        .has_headers(true)
+        .from_reader(BufReader::new(file));
+    let header = reader.headers().map_err(|e| csv_error(path, e))?.clone();
+    match header.get(0) {
+        Some("time") => {}
+        found => {
+            return Err(OutputError::Csv {
+                path: path.to_owned(),
+                line: 1,
+                message: match found {
+                    Some(f) => format!("first column must be `time`, found {f:?}"),
+                    None => "missing header".to_owned(),
+                },
+            });
+        }
+    }
+    let mut rec = Recording::new(header.iter().skip(1).map(str::to_owned).collect());
+    let mut record = StringRecord::new();
+    while reader
+        .read_record(&mut record)
+        .map_err(|e| csv_error(path, e))?
+    {
+        let line = record.position().map_or(0, |p| p.line());
+        let mut fields = header.iter().zip(record.iter()).map(|(name, field)| {
+            field.trim().parse::<f64>().map_err(|_| OutputError::Csv {
+                path: path.to_owned(),
+                line,
+                message: format!("column `{name}`: cannot parse {field:?} as a number"),
+            })
+        });
+        // The reader enforces equal field counts, so `fields` yields exactly one value for
+        // `time` and one per column.
+        if let Some(t) = fields.next() {
+            rec.time.push(t?);
+        }
+        for (column, v) in rec.columns.iter_mut().zip(fields) {
+            column.push(v?);
+        }
+    }
+    Ok(rec)
+}
+
+fn csv_error(path: &Path, err: ::csv::Error) -> OutputError {
+    let line = err.position().map_or(0, |p| p.line());
+    if err.is_io_error() {
+        if let ErrorKind::Io(source) = err.into_kind() {
+            return OutputError::Io {
+                path: path.to_owned(),
+                source,
+            };
+        }
+        unreachable!("is_io_error implies ErrorKind::Io");
+    }
+    let message = match err.kind() {
+        ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => format!("expected {expected_len} fields, found {len}"),
+        _ => err.to_string(),
+    };
+    OutputError::Csv {
+        path: path.to_owned(),
+        line,
+        message,
+    }
+}
+
+/// Writes a summary table atomically: `header`, then `rows`, each quoted as CSV needs. Every
+/// row must have as many fields as the header; otherwise nothing is written and the error
+/// gives the line the row would have had.
+pub fn write_table_csv(
+    path: &Path,
+    header: &[&str],
+    rows: &[Vec<String>],
+) -> Result<(), OutputError> {
+    if let Some((i, row)) = rows
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r.len() != header.len())
+    {
+        return Err(OutputError::Csv {
+            path: path.to_owned(),
+            line: i as u64 + 2,
+            message: format!(
+                "row {i} has {} fields, header has {}",
+                row.len(),
+                header.len()
+            ),
+        });
+    }
+    write_atomic(path, |w| {
+        let mut out = Writer::from_writer(w);
+        out.write_record(header)?;
+        for row in rows {
+            out.write_record(row)?;
+        }
+        out.flush()
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::fs;
+
+    const AWKWARD: [f64; 16] = [
+        1e-300,
+        -0.0,
+        0.0,
+        0.1 + 0.2,
+        f64::MAX,
+        f64::MIN,
+        f64::MIN_POSITIVE,
+        5e-324,
+        2.225e-310,
+        -1.5e-320,
+        1e16,
+        9_007_199_254_740_993.0,
+        123_456.789_012_345_67,
+        1e-5,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+
+    fn formatted(v: f64) -> String {
+        let mut s = String::new();
+        format_f64(&mut s, v);
+        s
+    }
+
+    #[test]
+    fn numbers_are_short_and_readable() {
+        assert_eq!(formatted(0.001), "0.001");
+        assert_eq!(formatted(0.1 + 0.2), "0.30000000000000004");
+        assert_eq!(formatted(1e-300), "1e-300");
+        assert_eq!(formatted(-0.0), "-0");
+        assert_eq!(formatted(f64::MAX), "1.7976931348623157e308");
+        assert_eq!(formatted(f64::NAN), "NaN");
+    }
+
+    #[test]
+    fn csv_round_trip_is_bit_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("trial.csv");
+        let names = vec!["a".to_owned(), "b, \"quoted\"".to_owned(), "nan".to_owned()];
+        let mut rec = Recording::with_capacity(names, AWKWARD.len());
+        for (i, &v) in AWKWARD.iter().enumerate() {
+            rec.push_row(i as f64 * 1e-3, &[v, -v, f64::NAN]);
+        }
+        write_recording(&path, &rec, &CsvExporter).unwrap();
+        let back = read_recording_csv(&path).unwrap();
+        assert_eq!(back.names, rec.names);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.time), bits(&rec.time));
+        assert_eq!(bits(&back.columns[0]), bits(&rec.columns[0]));
+        assert_eq!(bits(&back.columns[1]), bits(&rec.columns[1]));
+        assert!(back.columns[2].iter().all(|v| v.is_nan()));
+        assert_eq!(back.len(), AWKWARD.len());
+        let text = fs::read_to_string(&path).unwrap();
+        assert!(
+            text.starts_with("time,a,\"b, \"\"quoted\"\"\",nan\n"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn empty_recording_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("empty.csv");
+        let rec = Recording::new(vec!["x".into()]);
+        write_recording(&path, &rec, &CsvExporter).unwrap();
+        assert_eq!(read_recording_csv(&path).unwrap(), rec);
+    }
+
+    #[test]
+    fn malformed_number_names_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.csv");
+        fs::write(&path, "time,a\n0,1\n0.001,oops\n").unwrap();
+        let err = read_recording_csv(&path).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("bad.csv:3:"), "{msg}");
+        assert!(msg.contains("oops"), "{msg}");
+        assert!(matches!(err, OutputError::Csv { line: 3, .. }));
+    }
+
+    #[test]
+    fn short_row_names_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("short.csv");
+        fs::write(&path, "time,a,b\n0,1,2\n0.001,3,4\n0.002,5\n").unwrap();
+        let err = read_recording_csv(&path).unwrap_err();
+        assert!(err.to_string().contains("short.csv:4:"), "{err}");
+        assert!(
+            err.to_string().contains("expected 3 fields, found 2"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn header_must_start_with_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.csv");
+        fs::write(&path, "t,a\n0,1\n").unwrap();
+        let err = read_recording_csv(&path).unwrap_err();
+        assert!(matches!(err, OutputError::Csv { line: 1, .. }), "{err}");
+        fs::write(&path, "").unwrap();
+        let err = read_recording_csv(&path).unwrap_err();
+        assert!(err.to_string().contains("missing header"), "{err}");
+    }
+
+    #[test]
+    fn missing_file_is_io_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("absent.csv");
+        let err = read_recording_csv(&path).unwrap_err();
+        assert!(matches!(err, OutputError::Io { .. }));
+        assert!(err.to_string().contains("absent.csv"), "{err}");
+    }
+
+    #[test]
+    fn inconsistent_recording_is_rejected_and_old_file_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        fs::write(&path, "old").unwrap();
+        let mut rec = Recording::new(vec!["a".into()]);
+        rec.push_row(0.0, &[1.0]);
+        rec.time.push(0.001);
+        let err = write_recording(&path, &rec, &CsvExporter).unwrap_err();
+        let OutputError::Io { source, .. } = &err else {
+            panic!("{err:?}")
+        };
+        assert_eq!(source.kind(), io::ErrorKind::InvalidData);
+        assert_eq!(fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(CsvExporter.extension(), "csv");
+    }
+
+    #[test]
+    fn table_csv_writes_and_validates() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.csv");
+        let rows = vec![
+            vec!["pid".to_owned(), "1.5".to_owned()],
+            vec!["a,b".to_owned(), String::new()],
+        ];
+        write_table_csv(&path, &["scheme", "rms_mm"], &rows).unwrap();
+        assert_eq!(
+            fs::read_to_string(&path).unwrap(),
+            "scheme,rms_mm\npid,1.5\n\"a,b\",\n"
+        );
+        let bad = vec![vec!["x".to_owned()]];
+        let err = write_table_csv(&path, &["scheme", "rms_mm"], &bad).unwrap_err();
+        assert!(err.to_string().contains("summary.csv:2:"), "{err}");
+        assert!(
+            fs::read_to_string(&path)
+                .unwrap()
+                .starts_with("scheme,rms_mm\npid")
+        );
+    }
+}

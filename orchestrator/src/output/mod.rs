@@ -1,0 +1,58 @@
+//! Result files the orchestrator leaves for users: per-trial recordings, summary tables and
+//! SVG plots.
+//!
+//! Every file goes through [`write_atomic`], so an interrupted run leaves either the previous
+//! file or the complete new one, never a torn file that `--resume` or a reader would misparse.
+
+mod atomic;
+mod csv;
+pub mod plots;
+mod recording;
+
+use std::path::PathBuf;
+
+pub use self::atomic::write_atomic;
+pub use self::csv::{CsvExporter, Exporter, read_recording_csv, write_recording, write_table_csv};
+pub use self::recording::Recording;
+
+/// Failure to write or read a result file; every variant names the file so a user running a
+/// long study knows which output is affected.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The operating system refused an operation on `path` (create, write, fsync, rename, read).
+    #[error("I/O error on {}", path.display())]
+    Io {
+        /// The file the caller asked for (not the temporary file next to it).
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The CSV content of `path` is malformed, or the data to write is inconsistent.
+    #[error("{}:{line}: {message}", path.display())]
+    Csv {
+        /// The CSV file.
+        path: PathBuf,
+        /// 1-based line of the offending record (the header is line 1).
+        line: u64,
+        /// What is wrong with that line.
+        message: String,
+    },
+    /// A chart could not be laid out or rendered.
+    #[error("cannot plot {}: {message}", path.display())]
+    Plot {
+        /// The SVG file.
+        path: PathBuf,
+        /// Why plotting failed.
+        message: String,
+    },
+}
+
+impl OutputError {
+    /// The file this error is about.
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            Self::Io { path, .. } | Self::Csv { path, .. } | Self::Plot { path, .. } => path,
+        }
+    }
+}
