@@ -233,3 +233,74 @@ impl Params {
         Ok(())
     }
 }
+
+impl Params {
+    /// Sets the field with the DESIGN.md / FMU variable name `name` (e.g. `rod_mass`,
+    /// `platform_inertia[2]`, angles in rad). Returns false for a name that is not a
+    /// mechanism parameter, so callers can map a whole variable table without a field list.
+    pub fn set_field(&mut self, name: &str, value: f64) -> bool {
+        let slot = match name {
+            "base_radius" => &mut self.geometry.base_radius,
+            "platform_radius" => &mut self.geometry.platform_radius,
+            "home_height" => &mut self.geometry.home_height,
+            "base_joint_offset" => &mut self.geometry.base_joint_offset,
+            "platform_joint_offset" => &mut self.geometry.platform_joint_offset,
+            "platform_mass" => &mut self.platform.mass,
+            "platform_inertia[1]" => &mut self.platform.inertia.x,
+            "platform_inertia[2]" => &mut self.platform.inertia.y,
+            "platform_inertia[3]" => &mut self.platform.inertia.z,
+            "cylinder_mass" => &mut self.legs.cylinder_mass,
+            "cylinder_com" => &mut self.legs.cylinder_com,
+            "cylinder_inertia" => &mut self.legs.cylinder_inertia,
+            "rod_mass" => &mut self.legs.rod_mass,
+            "rod_com" => &mut self.legs.rod_com,
+            "rod_inertia" => &mut self.legs.rod_inertia,
+            "viscous_friction" => &mut self.friction.viscous,
+            "coulomb_friction" => &mut self.friction.coulomb,
+            "friction_velocity" => &mut self.friction.velocity,
+            "gravity" => &mut self.gravity,
+            _ => return false,
+        };
+        *slot = value;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_field_reaches_every_field_and_validation_names_it() {
+        let names = [
+            "base_radius",
+            "platform_radius",
+            "home_height",
+            "base_joint_offset",
+            "platform_joint_offset",
+            "platform_mass",
+            "platform_inertia[1]",
+            "platform_inertia[2]",
+            "platform_inertia[3]",
+            "cylinder_mass",
+            "cylinder_com",
+            "cylinder_inertia",
+            "rod_mass",
+            "rod_com",
+            "rod_inertia",
+            "viscous_friction",
+            "coulomb_friction",
+            "friction_velocity",
+            "gravity",
+        ];
+        for name in names {
+            let mut p = Params::default();
+            assert!(p.set_field(name, 12345.0), "{name}");
+            assert_ne!(p, Params::default(), "{name} changed nothing");
+            p.set_field(name, f64::NAN);
+            let err = p.validate().unwrap_err().to_string();
+            assert!(err.contains(name), "{name}: {err}");
+        }
+        assert!(!Params::default().set_field("initial_pose[1]", 0.0));
+    }
+}
