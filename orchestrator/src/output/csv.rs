@@ -292,6 +292,9 @@ mod tests {
             err.to_string().contains("expected 3 fields, found 2"),
             "{err}"
         );
+        fs::write(&path, "time,a,b\n0,1\n").unwrap();
+        let err = read_recording_csv(&path).unwrap_err();
+        assert!(matches!(err, OutputError::Csv { line: 2, .. }), "{err}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! Only the SVG backend of `plotters` is used, without its `ttf` feature: text is emitted as
 //! SVG `<text>` and laid out by the viewer, so no font files, fontconfig or freetype are
 //! needed. Each chart is rendered into a `String` and then written with
-//! [`write_atomic`](super::write_atomic).
+//! [`write_atomic`].
 //!
 //! Degenerate data never panics: non-finite points break a line instead of being drawn,
 //! empty series still get their legend entry on empty axes, and constant data gets a
@@ -66,7 +66,7 @@ fn colour(i: usize) -> RGBColor {
 
 /// Figure 6a–c / 7a–c style: leg errors vs time. One panel per entry of `panels`, each with
 /// its own title, its series (typically leg 1..6, already in mm) in their own colours with a
-/// legend, and the axis labels "time [s]" and "leg error [mm]". Each panel has its own y
+/// legend, and the axis labels `time [s]` and `leg error [mm]`. Each panel has its own y
 /// range, because errors of different schemes or trials differ by orders of magnitude.
 ///
 /// Up to three panels are stacked in one column, more go into two columns.
@@ -120,7 +120,8 @@ fn draw_time_panel(area: &Area<'_>, panel_title: &str, series: &[Series<'_>]) ->
 /// Figure 6d / 7d style: desired vs actual path in three projections side by side (x–y, x–z,
 /// y–z), axes labelled in `unit` (the caller converts the points). `desired` is drawn dashed
 /// black, each actual path in its own colour; all appear in the legend. Both axes of a panel
-/// span the same length, so a circle looks like a circle.
+/// span the same length and the plot areas are nearly square, so a circle looks like a
+/// circle (and a path flat in z looks flat: true shape, not magnified errors).
 pub fn path_projections(
     path: &Path,
     title: &str,
@@ -435,11 +436,11 @@ fn linear_range(values: impl Iterator<Item = f64>) -> Result<Range<f64>, Box<dyn
     let span = hi - lo;
     let pad = if span > scale * 1e-9 {
         span * 0.05
-    } else if scale > 0.0 {
-        scale * 0.1
     } else {
-        1.0
+        scale * 0.1
     };
+    // Zero data, or a subnormal constant whose tenth underflows to zero.
+    let pad = if pad > 0.0 { pad } else { 1.0 };
     let range = (lo - pad)..(hi + pad);
     if range.start.is_finite() && range.end.is_finite() {
         Ok(range)
@@ -769,6 +770,8 @@ mod tests {
         assert_eq!(r, -0.5..10.5);
         assert_eq!(linear_range(std::iter::empty()).unwrap(), 0.0..1.0);
         assert_eq!(linear_range([0.0, 0.0].into_iter()).unwrap(), -1.0..1.0);
+        let sub = linear_range([5e-324].into_iter()).unwrap();
+        assert!(sub.start < 5e-324 && sub.end > 5e-324);
         let c = linear_range([5.0, f64::NAN].into_iter()).unwrap();
         assert!(c.start < 5.0 && c.end > 5.0);
         assert!(linear_range([f64::MAX, -f64::MAX].into_iter()).is_err());
