@@ -1,0 +1,90 @@
+//! The generated Rust for the fixture compiles (it is `include!`d below, as an FMU
+//! crate's build output would be) and stays identical to what `codegen_rust` emits now.
+//! After an intended change of the generator, refresh the golden file with
+//! `FMI2_BLESS=1 cargo test -p fmi2 --test md_codegen`.
+
+use fmi2::export::{Causality, VarType, Variability};
+use fmi2::md::ModelDescription;
+use fmi2::md::codegen::codegen_rust;
+
+mod generated {
+    include!("fixtures/md/valid_generated.rs");
+}
+
+const GOLDEN: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/fixtures/md/valid_generated.rs"
+);
+
+#[test]
+fn golden_file_is_current() {
+    let md = ModelDescription::parse(include_str!("fixtures/md/valid.xml")).unwrap();
+    let fresh = codegen_rust(&md);
+    if std::env::var_os("FMI2_BLESS").is_some() {
+        std::fs::write(GOLDEN, &fresh).unwrap();
+    }
+    assert_eq!(
+        std::fs::read_to_string(GOLDEN).unwrap(),
+        fresh,
+        "rerun with FMI2_BLESS=1 after an intended change"
+    );
+}
+
+#[test]
+fn generated_constants_match_the_description() {
+    assert_eq!(generated::GUID, "{6f1c3a52-8d0e-4b7a-9e21-3c5d7a1b2f90}");
+    assert_eq!(generated::MODEL_IDENTIFIER, "MiniPlatform");
+    const { assert!(generated::CAN_HANDLE_VARIABLE_STEP) };
+    assert_eq!(generated::vr::FORCE_1, 1);
+    assert_eq!(generated::vr::FORCE_6, 6);
+    assert_eq!(generated::vr::X_4, 14);
+    assert_eq!(generated::vr::TOTAL_MASS, 25);
+
+    assert_eq!(generated::VARIABLES.len(), 18);
+    let x4 = generated::VARIABLES
+        .iter()
+        .find(|v| v.name == "x[4]")
+        .unwrap();
+    assert_eq!(
+        (
+            x4.value_reference,
+            x4.var_type,
+            x4.causality,
+            x4.variability
+        ),
+        (
+            14,
+            VarType::Real,
+            Causality::Output,
+            Variability::Continuous
+        )
+    );
+    let traj = generated::VARIABLES
+        .iter()
+        .find(|v| v.name == "trajectory")
+        .unwrap();
+    assert_eq!(
+        (traj.var_type, traj.causality, traj.variability),
+        (
+            VarType::Enumeration,
+            Causality::Parameter,
+            Variability::Fixed
+        )
+    );
+
+    assert_eq!(
+        generated::START,
+        &[
+            (1, VarType::Real, 0.0),
+            (2, VarType::Real, 0.0),
+            (3, VarType::Real, 0.0),
+            (4, VarType::Real, 0.0),
+            (5, VarType::Real, 0.0),
+            (6, VarType::Real, 0.0),
+            (21, VarType::Real, 4.92),
+            (22, VarType::Enumeration, 2.0),
+            (23, VarType::Boolean, 1.0),
+            (24, VarType::Integer, 3.0),
+        ]
+    );
+}
