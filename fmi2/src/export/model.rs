@@ -61,12 +61,18 @@ pub struct ModelError {
 impl ModelError {
     /// An fmi2Error with the given message.
     pub fn error(message: impl Into<String>) -> Self {
-        Self { status: Status::Error, message: message.into() }
+        Self {
+            status: Status::Error,
+            message: message.into(),
+        }
     }
 
     /// An fmi2Discard with the given message (the step was not taken; the master may retry smaller).
     pub fn discard(message: impl Into<String>) -> Self {
-        Self { status: Status::Discard, message: message.into() }
+        Self {
+            status: Status::Discard,
+            message: message.into(),
+        }
     }
 }
 
@@ -104,7 +110,9 @@ pub trait Model: Clone + Send + 'static {
     /// Writes an Integer or Enumeration.
     fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
         let _ = value;
-        Err(ModelError::error(format!("value reference {vr} is not a settable Integer")))
+        Err(ModelError::error(format!(
+            "value reference {vr} is not a settable Integer"
+        )))
     }
     /// Reads a Boolean.
     fn get_boolean(&self, vr: u32) -> bool {
@@ -114,11 +122,19 @@ pub trait Model: Clone + Send + 'static {
     /// Writes a Boolean.
     fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
         let _ = value;
-        Err(ModelError::error(format!("value reference {vr} is not a settable Boolean")))
+        Err(ModelError::error(format!(
+            "value reference {vr} is not a settable Boolean"
+        )))
     }
 
     /// Called by fmi2ExitInitializationMode at `start_time`: validate parameters, build
     /// the internal state, and make every output consistent with the inputs at that time.
+    ///
+    /// Must be idempotent and re-callable: in InitializationMode the glue calls it again
+    /// before a get whenever a variable was set since the last call (so outputs read
+    /// during initialization are consistent), and always once more at
+    /// fmi2ExitInitializationMode. Each call rebuilds the state from the current
+    /// parameters and inputs, never from the previous call's result.
     fn initialize(&mut self, start_time: f64) -> ModelResult<()>;
 
     /// Advances from `t` (the communication point, exactly as the master passed it) by `h > 0`.
