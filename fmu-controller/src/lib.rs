@@ -1,1 +1,263 @@
-//! placeholder
+//! HlcsController: the hybrid learning control scheme as an FMI 2.0 co-simulation FMU.
+//!
+//! Sampled semantics (DESIGN.md §6): doStep(t_n, h) reads the inputs set at t_n, evaluates
+//! the law of `ckcm::control` and holds the outputs over [t_n, t_n + h]. Before the first
+//! step (after initialization) the outputs preview the law at the start time with the
+//! integral of past samples only (none yet).
+
+use ckcm::nalgebra::Vector6;
+use ckcm::{
+    ControlInput, ControlSettings, Gains, Hlcs, Mechanism, Params, Pose, Reference, Trajectory,
+    TrajectoryKind,
+};
+use fmi2::export::values::{ByteReader, ByteWriter, Values};
+use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
+
+/// Generated from `modelDescription/HlcsController.xml` by the build script.
+pub mod md {
+    include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
+}
+use md::vr;
+
+/// Prefix of the nominal-model parameters.
+const MODEL_PREFIX: &str = "model.";
+
+/// Enumeration items of the `Trajectory` type.
+const TRAJECTORY_HOLD: i32 = 1;
+const TRAJECTORY_LINE: i32 = 2;
+const TRAJECTORY_CIRCLE: i32 = 3;
+const TRAJECTORY_EXTERNAL: i32 = 4;
+
+/// The controller: variable values plus, once initialised, the control law state.
+#[derive(Debug, Clone)]
+pub struct HlcsController {
+    values: Values,
+    sim: Option<Sim>,
+}
+
+#[derive(Debug, Clone)]
+struct Sim {
+    law: Hlcs,
+    /// `None` for the external reference inputs.
+    trajectory: Option<Trajectory>,
+    start_time: f64,
+}
+
+/// Name of a value reference, for messages.
+fn name(vr: u32) -> &'static str {
+    md::VARIABLES
+        .iter()
+        .find(|v| v.value_reference == vr)
+        .map_or("?", |v| v.name)
+}
+
+impl HlcsController {
+    /// The nominal model from the `model.*` parameters.
+    fn params(&self) -> Params {
+        let mut p = Params::nominal();
+        for v in md::VARIABLES {
+            if let Some(field) = v.name.strip_prefix(MODEL_PREFIX) {
+                if v.causality == Causality::Parameter && v.var_type == VarType::Real {
+                    p.set_field(field, self.values.real(v.value_reference));
+                }
+            }
+        }
+        p
+    }
+
+    fn settings(&self) -> ControlSettings {
+        let r = |vr| self.values.real(vr);
+        ControlSettings {
+            gains: Gains {
+                kp: r(vr::KP),
+                ki: r(vr::KI),
+                kd: r(vr::KD),
+                phi: r(vr::PHI),
+                gamma: r(vr::GAMMA),
+                psi: r(vr::PSI),
+            },
+            learning: self.values.boolean(vr::LEARNING),
+            feedforward: self.values.boolean(vr::FEEDFORWARD),
+        }
+    }
+
+    fn build(&self, start_time: f64) -> ModelResult<Sim> {
+        // The nominal model's fields are the `model.*` variables.
+        let model = Mechanism::new(self.params()).map_err(|e| {
+            ModelError::error(e.to_string().replacen(
+                "parameter `",
+                &format!("parameter `{MODEL_PREFIX}"),
+                1,
+            ))
+        })?;
+        let duration = self.values.real(vr::DURATION);
+        if duration.is_nan() || duration <= 0.0 {
+            return Err(ModelError::error(format!(
+                "duration = {duration} s must be positive"
+            )));
+        }
+        let home_height = model.params.geometry.home_height;
+        let trajectory = match self.values.integer(vr::TRAJECTORY) {
+            TRAJECTORY_HOLD => Some(TrajectoryKind::Hold),
+            TRAJECTORY_LINE => Some(TrajectoryKind::Line),
+            TRAJECTORY_CIRCLE => Some(TrajectoryKind::Circle),
+            TRAJECTORY_EXTERNAL => None,
+            other => {
+                return Err(ModelError::error(format!(
+                    "trajectory = {other} is not a Trajectory item (1 hold, 2 line, 3 circle, 4 external)"
+                )));
+            }
+        }
+        .map(|kind| Trajectory { kind, duration, home_height });
+        Ok(Sim {
+            law: Hlcs::new(model, self.settings()),
+            trajectory,
+            start_time,
+        })
+    }
+
+    fn reference(&self, sim: &Sim, t: f64) -> Reference {
+        match &sim.trajectory {
+            Some(traj) => traj.sample(t - sim.start_time),
+            None => Reference {
+                pose: Pose::from_xyz_euler(&self.values.real6(vr::POSE_REF_1)),
+                twist: Vector6::from_row_slice(&self.values.real6(vr::TWIST_REF_1)),
+                accel: Vector6::from_row_slice(&self.values.real6(vr::ACCEL_REF_1)),
+            },
+        }
+    }
+
+    fn input(&self) -> ControlInput {
+        let v = |first| Vector6::from_row_slice(&self.values.real6(first));
+        ControlInput {
+            length: v(vr::LENGTH_1),
+            velocity: v(vr::VELOCITY_1),
+            memory: v(vr::MEMORY_1),
+        }
+    }
+
+    /// Evaluates the law at `t`; with `commit`, integrates this sample over `h`.
+    fn sample(&mut self, t: f64, h: f64, commit: bool) -> ModelResult<()> {
+        let settings = self.settings();
+        let input = self.input();
+        let sim = self
+            .sim
+            .as_ref()
+            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let reference = self.reference(sim, t);
+        let mut law = sim.law;
+        // Gains are tunable between steps.
+        law.settings = settings;
+        let (out, integral) = law.evaluate(&reference, &input, h).map_err(|e| {
+            ModelError::error(format!(
+                "control law failed at t = {t} s: {e} (reference pose {:?})",
+                reference.pose.to_xyz_euler()
+            ))
+        })?;
+        if let Some(sim) = self.sim.as_mut() {
+            sim.law.settings = settings;
+            if commit {
+                sim.law.integral = integral;
+            }
+        }
+        self.values.set_real6(vr::FORCE_1, out.force.as_slice());
+        self.values
+            .set_real6(vr::MEMORY_NEXT_1, out.memory_next.as_slice());
+        self.values
+            .set_real6(vr::LENGTH_REF_1, out.length_ref.as_slice());
+        self.values.set_real6(vr::ERROR_1, out.error.as_slice());
+        Ok(())
+    }
+}
+
+impl Model for HlcsController {
+    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
+    const GUID: &'static str = md::GUID;
+    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
+    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+
+    fn new() -> Self {
+        let mut values = Values::from_start(md::START);
+        for v in md::VARIABLES {
+            values.ensure(v.value_reference);
+        }
+        Self { values, sim: None }
+    }
+
+    fn get_real(&self, vr: u32) -> f64 {
+        self.values.real(vr)
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
+        if !value.is_finite() {
+            return Err(ModelError::error(format!(
+                "{} = {value} is not finite",
+                name(vr)
+            )));
+        }
+        self.values.set_real(vr, value);
+        Ok(())
+    }
+
+    fn get_integer(&self, vr: u32) -> i32 {
+        self.values.integer(vr)
+    }
+
+    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
+        self.values.set_integer(vr, value);
+        Ok(())
+    }
+
+    fn get_boolean(&self, vr: u32) -> bool {
+        self.values.boolean(vr)
+    }
+
+    fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
+        self.values.set_boolean(vr, value);
+        Ok(())
+    }
+
+    fn initialize(&mut self, start_time: f64) -> ModelResult<()> {
+        self.sim = Some(self.build(start_time)?);
+        self.sample(start_time, 0.0, false)
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()> {
+        self.sample(t, h, true)
+    }
+
+    fn save(&self, out: &mut Vec<u8>) {
+        let mut w = ByteWriter(out);
+        self.values.save(&mut w);
+        match &self.sim {
+            None => w.u8(0),
+            Some(sim) => {
+                w.u8(1);
+                w.f64(sim.start_time);
+                w.f64s(sim.law.integral.as_slice());
+            }
+        }
+    }
+
+    fn restore(&mut self, bytes: &[u8]) -> ModelResult<()> {
+        let mut r = ByteReader(bytes);
+        let mut restored = Self {
+            values: Values::default(),
+            sim: None,
+        };
+        restored.values.restore(&mut r)?;
+        if r.u8()? == 1 {
+            let start_time = r.f64()?;
+            let mut sim = restored.build(start_time)?;
+            let mut integral = [0.0; 6];
+            r.f64s(&mut integral)?;
+            sim.law.integral = Vector6::from_row_slice(&integral);
+            restored.sim = Some(sim);
+        }
+        r.finish()?;
+        *self = restored;
+        Ok(())
+    }
+}
+
+fmi2::export_fmu!(HlcsController);

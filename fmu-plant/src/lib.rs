@@ -1,1 +1,220 @@
-//! placeholder
+//! CkcmPlant: the 6-DOF closed-kinematic-chain manipulator as an FMI 2.0 co-simulation FMU.
+//!
+//! Actuator forces come in and are held over each communication step; the rigid-body
+//! model of `ckcm` is integrated over the step (RK4 with substeps, or adaptive
+//! Dormand–Prince); leg lengths, leg rates and the platform pose go out.
+
+use ckcm::nalgebra::Vector6;
+use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State};
+use fmi2::export::values::{ByteReader, ByteWriter, Values};
+use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
+
+/// Generated from `modelDescription/CkcmPlant.xml` by the build script.
+pub mod md {
+    include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
+}
+use md::vr;
+
+/// Enumeration items of the `Integrator` type.
+const INTEGRATOR_RK4: i32 = 1;
+const INTEGRATOR_DORMAND_PRINCE: i32 = 2;
+
+/// The plant: variable values plus, once initialised, the simulated mechanism.
+#[derive(Debug, Clone)]
+pub struct CkcmPlant {
+    values: Values,
+    sim: Option<Sim>,
+}
+
+#[derive(Debug, Clone)]
+struct Sim {
+    mechanism: Mechanism,
+    integrator: Integrator,
+    state: State,
+}
+
+/// Name of a value reference, for messages.
+fn name(vr: u32) -> &'static str {
+    md::VARIABLES
+        .iter()
+        .find(|v| v.value_reference == vr)
+        .map_or("?", |v| v.name)
+}
+
+impl CkcmPlant {
+    /// Mechanism parameters from the parameter variables (names as in `ckcm::Params::set_field`).
+    fn params(&self) -> Params {
+        let mut p = Params::default();
+        for v in md::VARIABLES {
+            if v.causality == Causality::Parameter && v.var_type == VarType::Real {
+                p.set_field(v.name, self.values.real(v.value_reference));
+            }
+        }
+        p
+    }
+
+    fn integrator(&self) -> ModelResult<Integrator> {
+        match self.values.integer(vr::INTEGRATOR) {
+            INTEGRATOR_RK4 => {
+                let substeps = self.values.integer(vr::SUBSTEPS);
+                if substeps < 1 {
+                    return Err(ModelError::error(format!(
+                        "substeps = {substeps} must be at least 1"
+                    )));
+                }
+                Ok(Integrator::Rk4(Rk4 {
+                    substeps: substeps as u32,
+                }))
+            }
+            INTEGRATOR_DORMAND_PRINCE => {
+                let rtol = self.values.real(vr::RELATIVE_TOLERANCE);
+                let atol = self.values.real(vr::ABSOLUTE_TOLERANCE);
+                for (n, x) in [("relative_tolerance", rtol), ("absolute_tolerance", atol)] {
+                    if !(x.is_finite() && x > 0.0) {
+                        return Err(ModelError::error(format!("{n} = {x} must be positive")));
+                    }
+                }
+                Ok(Integrator::DormandPrince(DormandPrince {
+                    rtol,
+                    atol,
+                    ..Default::default()
+                }))
+            }
+            other => Err(ModelError::error(format!(
+                "integrator = {other} is not an Integrator item (1 rk4, 2 dormand_prince)"
+            ))),
+        }
+    }
+
+    fn build(&self) -> ModelResult<Sim> {
+        let mechanism =
+            Mechanism::new(self.params()).map_err(|e| ModelError::error(e.to_string()))?;
+        let offset = self.values.real6(vr::INITIAL_POSE_1);
+        let mut initial = offset;
+        initial[2] += mechanism.params.geometry.home_height;
+        Ok(Sim {
+            mechanism,
+            integrator: self.integrator()?,
+            state: State::at_rest(Pose::from_xyz_euler(&initial)),
+        })
+    }
+
+    fn write_outputs(&mut self) {
+        let Some(sim) = &self.sim else { return };
+        let legs = sim.mechanism.inverse_kinematics(&sim.state.pose);
+        let rates = legs.leg_rates(&sim.state.twist);
+        let pose = sim.state.pose.to_xyz_euler();
+        self.values.set_real6(vr::LENGTH_1, legs.length.as_slice());
+        self.values.set_real6(vr::VELOCITY_1, rates.as_slice());
+        self.values.set_real6(vr::POSE_1, &pose);
+    }
+}
+
+impl Model for CkcmPlant {
+    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
+    const GUID: &'static str = md::GUID;
+    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
+    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+
+    fn new() -> Self {
+        let mut values = Values::from_start(md::START);
+        for v in md::VARIABLES {
+            values.ensure(v.value_reference);
+        }
+        Self { values, sim: None }
+    }
+
+    fn get_real(&self, vr: u32) -> f64 {
+        self.values.real(vr)
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
+        if !value.is_finite() {
+            return Err(ModelError::error(format!(
+                "{} = {value} is not finite",
+                name(vr)
+            )));
+        }
+        self.values.set_real(vr, value);
+        Ok(())
+    }
+
+    fn get_integer(&self, vr: u32) -> i32 {
+        self.values.integer(vr)
+    }
+
+    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
+        self.values.set_integer(vr, value);
+        Ok(())
+    }
+
+    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
+        self.sim = Some(self.build()?);
+        self.write_outputs();
+        Ok(())
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()> {
+        let force = Vector6::from_row_slice(&self.values.real6(vr::FORCE_1));
+        let sim = self
+            .sim
+            .as_mut()
+            .ok_or_else(|| ModelError::error("doStep before initialization"))?;
+        sim.integrator
+            .advance(&sim.mechanism, &mut sim.state, &force, h)
+            .map_err(|e| {
+                ModelError::error(format!(
+                    "the plant could not be advanced from t = {t} s by {h} s under force = {:?} N: {e}",
+                    force.as_slice()
+                ))
+            })?;
+        self.write_outputs();
+        Ok(())
+    }
+
+    fn save(&self, out: &mut Vec<u8>) {
+        let mut w = ByteWriter(out);
+        self.values.save(&mut w);
+        match &self.sim {
+            None => w.u8(0),
+            Some(sim) => {
+                w.u8(1);
+                w.f64s(sim.state.pose.p_world.as_slice());
+                w.f64s(sim.state.pose.q_world.coords.as_slice());
+                w.f64s(sim.state.twist.as_slice());
+                w.f64(match sim.integrator {
+                    Integrator::DormandPrince(dp) => dp.h_next,
+                    Integrator::Rk4(_) => 0.0,
+                });
+            }
+        }
+    }
+
+    fn restore(&mut self, bytes: &[u8]) -> ModelResult<()> {
+        let mut r = ByteReader(bytes);
+        let mut restored = Self {
+            values: Values::default(),
+            sim: None,
+        };
+        restored.values.restore(&mut r)?;
+        if r.u8()? == 1 {
+            let mut sim = restored.build()?;
+            let mut buf = [0.0; 14];
+            r.f64s(&mut buf)?;
+            sim.state.pose.p_world = ckcm::nalgebra::Vector3::new(buf[0], buf[1], buf[2]);
+            sim.state.pose.q_world = ckcm::nalgebra::UnitQuaternion::new_unchecked(
+                ckcm::nalgebra::Quaternion::new(buf[6], buf[3], buf[4], buf[5]),
+            );
+            sim.state.twist = Vector6::from_row_slice(&buf[7..13]);
+            if let Integrator::DormandPrince(dp) = &mut sim.integrator {
+                dp.h_next = buf[13];
+            }
+            restored.sim = Some(sim);
+        }
+        r.finish()?;
+        *self = restored;
+        Ok(())
+    }
+}
+
+fmi2::export_fmu!(CkcmPlant);

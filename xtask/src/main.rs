@@ -1,1 +1,89 @@
-fn main() {}
+//! Project automation, so a fresh machine needs only `cargo`:
+//!
+//! - `cargo xtask fmu`: build the two FMU binaries in release mode and package
+//!   `target/fmu/CkcmPlant.fmu` and `target/fmu/HlcsController.fmu`.
+//! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
+//!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
+//! - `cargo xtask test`: package the FMUs, run every Rust test, create the Python virtualenv
+//!   (pinned fmpy, numpy, pytest) and run the fmpy tests.
+
+mod docs;
+mod package;
+mod python;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+
+/// The two FMUs: (cargo package, model identifier).
+pub const FMUS: [(&str, &str); 2] = [
+    ("fmu-plant", "CkcmPlant"),
+    ("fmu-controller", "HlcsController"),
+];
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let root = workspace_root();
+    match args.first().map(String::as_str) {
+        Some("fmu") => {
+            package::build_fmus(&root)?;
+        }
+        Some("paper") => {
+            package::build_fmus(&root)?;
+            run(Command::new(cargo())
+                .current_dir(&root)
+                .args([
+                    "run",
+                    "--release",
+                    "--quiet",
+                    "-p",
+                    "orchestrator",
+                    "--",
+                    "paper",
+                ])
+                .arg("--fmu-dir")
+                .arg(root.join("target/fmu"))
+                .args(&args[1..]))?;
+        }
+        Some("test") => {
+            package::build_fmus(&root)?;
+            run(Command::new(cargo())
+                .current_dir(&root)
+                .args(["test", "--workspace", "--release"])
+                .env("CKCM_FMU_DIR", root.join("target/fmu")))?;
+            python::run_pytest(&root)?;
+        }
+        _ => bail!(
+            "usage: cargo xtask <fmu | paper [ARGS...] | test>\n  \
+             fmu    build and package target/fmu/*.fmu\n  \
+             paper  package the FMUs and run the paper study (results/paper/)\n  \
+             test   package the FMUs and run every Rust and fmpy test"
+        ),
+    }
+    Ok(())
+}
+
+/// The workspace root (this crate's parent directory).
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the workspace")
+        .to_path_buf()
+}
+
+/// The cargo that runs us, so toolchain overrides carry over.
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string())
+}
+
+/// Runs a command, failing with its command line if it does not succeed.
+pub fn run(cmd: &mut Command) -> Result<()> {
+    let status = cmd
+        .status()
+        .with_context(|| format!("cannot start {cmd:?}"))?;
+    if !status.success() {
+        bail!("{cmd:?} failed with {status}");
+    }
+    Ok(())
+}

@@ -1,0 +1,82 @@
+//! `.fmu` archives: modelDescription.xml, binaries/linux64/<modelIdentifier>.so,
+//! documentation/index.html.
+
+use std::fs;
+use std::io::Write;
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use zip::write::SimpleFileOptions;
+
+use crate::{FMUS, cargo, docs, run};
+
+/// Builds both FMU crates in release mode and writes `target/fmu/<id>.fmu`.
+pub fn build_fmus(root: &Path) -> Result<()> {
+    let mut cmd = Command::new(cargo());
+    cmd.current_dir(root)
+        .args(["build", "--release", "--quiet"]);
+    for (package, _) in FMUS {
+        cmd.args(["-p", package]);
+    }
+    run(&mut cmd)?;
+    let out_dir = root.join("target/fmu");
+    fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    for (package, id) in FMUS {
+        let lib = root
+            .join("target/release")
+            .join(format!("lib{}.so", package_lib_name(package)));
+        let xml = root.join("modelDescription").join(format!("{id}.xml"));
+        let fmu = out_dir.join(format!("{id}.fmu"));
+        package_fmu(&xml, &lib, &fmu)?;
+        println!("packaged {}", fmu.display());
+    }
+    Ok(())
+}
+
+/// The `[lib] name` of each FMU crate.
+fn package_lib_name(package: &str) -> &'static str {
+    match package {
+        "fmu-plant" => "ckcm_plant",
+        "fmu-controller" => "hlcs_controller",
+        other => panic!("unknown FMU package {other}"),
+    }
+}
+
+/// Writes one `.fmu` atomically (temporary file, then rename).
+pub fn package_fmu(xml: &Path, lib: &Path, fmu: &Path) -> Result<()> {
+    let md_text =
+        fs::read_to_string(xml).with_context(|| format!("cannot read {}", xml.display()))?;
+    let md =
+        fmi2::md::ModelDescription::parse(&md_text).with_context(|| xml.display().to_string())?;
+    let problems = md.validate();
+    if !problems.is_empty() {
+        bail!("{} has problems: {problems:?}", xml.display());
+    }
+    let id = &md
+        .co_simulation
+        .as_ref()
+        .context("no CoSimulation element")?
+        .model_identifier;
+    let binary = fs::read(lib).with_context(|| format!("cannot read {}", lib.display()))?;
+    let tmp = fmu.with_extension("fmu.tmp");
+    {
+        let file =
+            fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        let mut zip = zip::ZipWriter::new(file);
+        let opts =
+            SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+        zip.start_file("modelDescription.xml", opts)?;
+        zip.write_all(md_text.as_bytes())?;
+        zip.start_file(
+            format!("binaries/linux64/{id}.so"),
+            opts.unix_permissions(0o755),
+        )?;
+        zip.write_all(&binary)?;
+        zip.start_file("documentation/index.html", opts)?;
+        zip.write_all(docs::index_html(&md).as_bytes())?;
+        zip.finish()?.sync_all()?;
+    }
+    fs::rename(&tmp, fmu).with_context(|| format!("cannot move {} into place", fmu.display()))?;
+    Ok(())
+}
