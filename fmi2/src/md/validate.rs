@@ -60,14 +60,14 @@ fn check_header(md: &ModelDescription, r: &mut Report) {
                 .map(|m| m.model_identifier.as_str()),
         ),
     ] {
-        if let Some(id) = id
-            && !is_c_identifier(id)
-        {
-            r.push(
-                None,
-                element,
-                format!("modelIdentifier '{id}' is not a valid C identifier"),
-            );
+        if let Some(id) = id {
+            if !is_c_identifier(id) {
+                r.push(
+                    None,
+                    element,
+                    format!("modelIdentifier '{id}' is not a valid C identifier"),
+                );
+            }
         }
     }
     if md.model_name.trim().is_empty() {
@@ -76,35 +76,35 @@ fn check_header(md: &ModelDescription, r: &mut Report) {
     if md.guid.trim().is_empty() {
         r.push(None, ROOT, "guid is empty");
     }
-    if let Some(date) = &md.generation_date_and_time
-        && !is_xs_date_time(date)
-    {
-        r.push(
+    if let Some(date) = &md.generation_date_and_time {
+        if !is_xs_date_time(date) {
+            r.push(
             None,
             ROOT,
             format!("generationDateAndTime '{date}' is not a valid xs:dateTime (e.g. 2026-01-31T12:00:00Z)"),
         );
+        }
     }
     if let Some(de) = &md.default_experiment {
         const DE: &str = "DefaultExperiment";
-        if let Some(h) = de.step_size
-            && !(h > 0.0 && h.is_finite())
-        {
-            r.push(None, DE, format!("stepSize must be > 0, is {h}"));
+        if let Some(h) = de.step_size {
+            if !(h > 0.0 && h.is_finite()) {
+                r.push(None, DE, format!("stepSize must be > 0, is {h}"));
+            }
         }
-        if let Some(tol) = de.tolerance
-            && !(tol > 0.0 && tol.is_finite())
-        {
-            r.push(None, DE, format!("tolerance must be > 0, is {tol}"));
+        if let Some(tol) = de.tolerance {
+            if !(tol > 0.0 && tol.is_finite()) {
+                r.push(None, DE, format!("tolerance must be > 0, is {tol}"));
+            }
         }
-        if let (Some(t0), Some(t1)) = (de.start_time, de.stop_time)
-            && t1 <= t0
-        {
-            r.push(
-                None,
-                DE,
-                format!("stopTime {t1} must be after startTime {t0}"),
-            );
+        if let (Some(t0), Some(t1)) = (de.start_time, de.stop_time) {
+            if t1 <= t0 {
+                r.push(
+                    None,
+                    DE,
+                    format!("stopTime {t1} must be after startTime {t0}"),
+                );
+            }
         }
     }
 }
@@ -207,14 +207,14 @@ fn check_unit_refs(
     r: &mut Report,
 ) {
     let line = None;
-    if let Some(u) = unit
-        && md.unit(u).is_none()
-    {
-        r.push(
-            line,
-            element,
-            format!("unit '{u}' is not defined in <UnitDefinitions>"),
-        );
+    if let Some(u) = unit {
+        if md.unit(u).is_none() {
+            r.push(
+                line,
+                element,
+                format!("unit '{u}' is not defined in <UnitDefinitions>"),
+            );
+        }
     }
     if let Some(d) = display_unit {
         match unit.or(type_unit) {
@@ -224,14 +224,14 @@ fn check_unit_refs(
                 format!("displayUnit '{d}' given without a unit"),
             ),
             Some(u) => {
-                if let Some(def) = md.unit(u)
-                    && !def.display_units.iter().any(|du| du.name == d)
-                {
-                    r.push(
-                        line,
-                        element,
-                        format!("displayUnit '{d}' is not defined for unit '{u}'"),
-                    );
+                if let Some(def) = md.unit(u) {
+                    if !def.display_units.iter().any(|du| du.name == d) {
+                        r.push(
+                            line,
+                            element,
+                            format!("displayUnit '{d}' is not defined for unit '{u}'"),
+                        );
+                    }
                 }
             }
         }
@@ -246,21 +246,21 @@ fn check_range(
     element: &str,
     r: &mut Report,
 ) {
-    if let (Some(lo), Some(hi)) = (min, max)
-        && lo > hi
-    {
-        r.push(line, element, format!("min {lo} is greater than max {hi}"));
+    if let (Some(lo), Some(hi)) = (min, max) {
+        if lo > hi {
+            r.push(line, element, format!("min {lo} is greater than max {hi}"));
+        }
     }
     if let Some(s) = start {
-        if let Some(lo) = min
-            && s < lo
-        {
-            r.push(line, element, format!("start {s} is below min {lo}"));
+        if let Some(lo) = min {
+            if s < lo {
+                r.push(line, element, format!("start {s} is below min {lo}"));
+            }
         }
-        if let Some(hi) = max
-            && s > hi
-        {
-            r.push(line, element, format!("start {s} is above max {hi}"));
+        if let Some(hi) = max {
+            if s > hi {
+                r.push(line, element, format!("start {s} is above max {hi}"));
+            }
         }
     }
 }
@@ -354,19 +354,18 @@ fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
             );
         }
         Some(rule) => {
-            if let Some(i) = v.initial
-                && !rule.allowed.contains(&i)
-            {
-                let allowed = if rule.allowed.is_empty() {
-                    "no initial attribute".to_owned()
-                } else {
-                    rule.allowed
-                        .iter()
-                        .map(|&a| initial_name(a))
-                        .collect::<Vec<_>>()
-                        .join(" or ")
-                };
-                r.var(
+            if let Some(i) = v.initial {
+                if !rule.allowed.contains(&i) {
+                    let allowed = if rule.allowed.is_empty() {
+                        "no initial attribute".to_owned()
+                    } else {
+                        rule.allowed
+                            .iter()
+                            .map(|&a| initial_name(a))
+                            .collect::<Vec<_>>()
+                            .join(" or ")
+                    };
+                    r.var(
                     v,
                     format!(
                         "initial={} is not allowed for causality={} variability={} (allowed: {allowed})",
@@ -375,6 +374,7 @@ fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
                         variability_name(var)
                     ),
                 );
+                }
             }
             check_start(v, r);
         }
@@ -525,13 +525,15 @@ fn check_kind(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
                     kind: SimpleTypeKind::Enumeration { items, .. },
                     ..
                 }) => {
-                    if let Some(s) = start
-                        && !items.iter().any(|i| i.value == *s)
-                    {
-                        r.var(
-                            v,
-                            format!("start {s} is not a value of enumeration '{declared_type}'"),
-                        );
+                    if let Some(s) = start {
+                        if !items.iter().any(|i| i.value == *s) {
+                            r.var(
+                                v,
+                                format!(
+                                    "start {s} is not a value of enumeration '{declared_type}'"
+                                ),
+                            );
+                        }
                     }
                 }
                 Some(_) => wrong_type(r, declared_type, "Enumeration"),
@@ -571,19 +573,19 @@ fn check_unknown<'m>(
                 );
             }
         }
-        if let Some(kinds) = &u.dependencies_kind
-            && kinds.len() != deps.len()
-        {
-            r.push(
-                u.line,
-                &element,
-                format!(
-                    "Unknown index={}: {} dependenciesKind for {} dependencies",
-                    u.index,
-                    kinds.len(),
-                    deps.len()
-                ),
-            );
+        if let Some(kinds) = &u.dependencies_kind {
+            if kinds.len() != deps.len() {
+                r.push(
+                    u.line,
+                    &element,
+                    format!(
+                        "Unknown index={}: {} dependenciesKind for {} dependencies",
+                        u.index,
+                        kinds.len(),
+                        deps.len()
+                    ),
+                );
+            }
         }
     } else if u.dependencies_kind.is_some() {
         r.push(
@@ -625,23 +627,23 @@ fn check_outputs(md: &ModelDescription, r: &mut Report) {
 
 fn check_derivatives(md: &ModelDescription, r: &mut Report) {
     for u in &md.model_structure.derivatives {
-        if let Some(v) = check_unknown(md, u, "Derivatives", r)
-            && !matches!(
+        if let Some(v) = check_unknown(md, u, "Derivatives", r) {
+            if !matches!(
                 v.kind,
                 VariableKind::Real {
                     derivative: Some(_),
                     ..
                 }
-            )
-        {
-            r.push(
-                u.line,
-                "ModelStructure/Derivatives",
-                format!(
-                    "Unknown index={} ('{}') is not a Real with a derivative attribute",
-                    u.index, v.name
-                ),
-            );
+            ) {
+                r.push(
+                    u.line,
+                    "ModelStructure/Derivatives",
+                    format!(
+                        "Unknown index={} ('{}') is not a Real with a derivative attribute",
+                        u.index, v.name
+                    ),
+                );
+            }
         }
     }
 }
@@ -681,12 +683,13 @@ fn check_initial_unknowns(md: &ModelDescription, r: &mut Report) {
             derivative: Some(s),
             ..
         } = der.kind
-            && let Some(state) = (s as usize)
-                .checked_sub(1)
-                .and_then(|i| md.model_variables.get(i))
-            && not_exact(state)
         {
-            expected.insert(s as usize);
+            let state = (s as usize)
+                .checked_sub(1)
+                .and_then(|i| md.model_variables.get(i));
+            if state.is_some_and(not_exact) {
+                expected.insert(s as usize);
+            }
         }
     }
     let expected: Vec<usize> = expected.into_iter().collect();
