@@ -1,2 +1,8 @@
-//! placeholder
+//! The co-simulation master for the CKCM FMUs (and any FMI 2.0 co-simulation FMU):
+//! scenario files, the Gauss–Seidel master loop with iteration memory, campaigns with
+//! atomic persistence and resume, outputs and plots, and the paper study.
+
+pub mod campaign;
+pub mod master;
 pub mod output;
+pub mod scenario;

@@ -1,0 +1,107 @@
+//! Command-line arguments (clap derive), validated once in each subcommand module.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// FMI 2.0 co-simulation master for learning-control studies.
+#[derive(Debug, Parser)]
+#[command(name = "orchestrator", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run every trial of a scenario file (FMUs, connections, iteration memory, recording).
+    Run(RunArgs),
+    /// Simulate one FMI 2.0 co-simulation FMU alone, with optional inputs from a CSV file.
+    Simulate(SimulateArgs),
+    /// Show an FMU's model description: capabilities, default experiment and variables.
+    Info(InfoArgs),
+    /// Reproduce the paper's simulation study: line and circle, PID / PD-type ILC / HLCS.
+    Paper(PaperArgs),
+}
+
+/// `run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The scenario file (TOML).
+    pub scenario: PathBuf,
+    /// Output directory (default: results/<scenario file stem>).
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Continue an interrupted campaign from its last completed trial.
+    #[arg(long)]
+    pub resume: bool,
+    /// Override the scenario's number of trials.
+    #[arg(long)]
+    pub trials: Option<usize>,
+    /// Ask the FMUs for debug logging (messages go to stderr).
+    #[arg(long)]
+    pub fmu_logging: bool,
+    /// Stop after this many trials in total, as if interrupted (for testing resume).
+    #[arg(long, hide = true)]
+    pub stop_after: Option<usize>,
+}
+
+/// `simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// The FMU (.fmu).
+    pub fmu: PathBuf,
+    /// Input CSV: a `time` column, then columns named after input variables; values are held
+    /// from each row's time until the next (zero-order hold).
+    #[arg(short, long)]
+    pub input: Option<PathBuf>,
+    /// Output CSV (default: standard output).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Start time in s (default: the model's DefaultExperiment, else 0).
+    #[arg(long)]
+    pub start_time: Option<f64>,
+    /// Stop time in s (default: the model's DefaultExperiment, else 1).
+    #[arg(long)]
+    pub stop_time: Option<f64>,
+    /// Communication step size in s (default: the model's DefaultExperiment, else 1e-3).
+    #[arg(long)]
+    pub step_size: Option<f64>,
+    /// Start values, NAME=VALUE (repeatable); Booleans as true/false.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// Variables to record (default: all outputs).
+    #[arg(long = "record", value_name = "NAME")]
+    pub record: Vec<String>,
+    /// Ask the FMU for debug logging (messages go to stderr).
+    #[arg(long)]
+    pub fmu_logging: bool,
+}
+
+/// `info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// The FMU (.fmu).
+    pub fmu: PathBuf,
+}
+
+/// `paper`.
+#[derive(Debug, Args)]
+pub struct PaperArgs {
+    /// Directory holding CkcmPlant.fmu and HlcsController.fmu.
+    #[arg(long, default_value = "target/fmu")]
+    pub fmu_dir: PathBuf,
+    /// Output directory.
+    #[arg(short, long, default_value = "results/paper")]
+    pub out: PathBuf,
+    /// Trials per scheme (at least 3: the claims compare trials 0, 2 and 3).
+    #[arg(long, default_value_t = 10)]
+    pub trials: usize,
+    /// Shorten both trajectories to this many seconds (tests; the paper uses 15 s and 5 s).
+    #[arg(long)]
+    pub duration_scale: Option<f64>,
+    /// Continue an interrupted study.
+    #[arg(long)]
+    pub resume: bool,
+}

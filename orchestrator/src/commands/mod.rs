@@ -1,0 +1,6 @@
+//! One module per subcommand.
+
+pub mod info;
+pub mod paper;
+pub mod run;
+pub mod simulate;

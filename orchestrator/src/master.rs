@@ -1,0 +1,435 @@
+//! The co-simulation master: Gauss–Seidel stepping at t_n = t_0 + n·h, repeated trials
+//! from the same initial state, and double-buffered iteration memory (DESIGN.md §6).
+//!
+//! All buffers are sized once per campaign; the per-step loop only copies between
+//! preallocated slices and calls the FMUs.
+
+use std::ops::Range;
+
+use fmi2::import::{Fmu, ImportError, Instance};
+
+use crate::output::Recording;
+use crate::scenario::{Port, Scenario, Value};
+
+/// A failure while running, naming the trial, the time and the call.
+#[derive(Debug, thiserror::Error)]
+pub enum MasterError {
+    #[error("cannot instantiate FMU {fmu:?}: {source}")]
+    Instantiate { fmu: String, source: ImportError },
+    #[error("trial {trial}, t = {time} s: {what} of FMU {fmu:?} failed: {source}")]
+    Call {
+        trial: usize,
+        time: f64,
+        fmu: String,
+        what: &'static str,
+        source: ImportError,
+    },
+    #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
+    Setup {
+        trial: usize,
+        fmu: String,
+        what: &'static str,
+        source: ImportError,
+    },
+}
+
+/// Values of one trial kept at full rate for the summary metrics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrialSignals {
+    /// t_n of each sample.
+    pub time: Vec<f64>,
+    /// Leg errors, `[leg][sample]`.
+    pub error: [Vec<f64>; 6],
+    /// Platform position (x, y, z) at each sample, when a pose port is configured.
+    pub position: Vec<[f64; 3]>,
+}
+
+/// Per-FMU wiring, resolved to value references and bus slots.
+#[derive(Debug)]
+struct Wiring {
+    /// Outputs read after every step (and after initialization) into `bus[bus_range]`.
+    out_vrs: Vec<u32>,
+    bus_range: Range<usize>,
+    /// Real inputs set before every step.
+    in_vrs: Vec<u32>,
+    in_src: Vec<Source>,
+    in_buf: Vec<f64>,
+    /// (bus slot, recording column) copied before the step (values at t_n).
+    record_before: Vec<(usize, usize)>,
+    /// (bus slot, recording column) copied after the step (values held over the step).
+    record_after: Vec<(usize, usize)>,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    Bus(usize),
+    /// Memory channel, element.
+    Memory(usize, usize),
+}
+
+#[derive(Debug)]
+struct Channel {
+    width: usize,
+    /// Bus slots of the producing output, read after the producer's step.
+    from_slots: Vec<usize>,
+    /// FMU whose step produces the values.
+    producer: usize,
+    read: Vec<f64>,
+    write: Vec<f64>,
+}
+
+/// Loaded FMUs, instances and buffers for one scenario.
+#[derive(Debug)]
+pub struct Master<'s> {
+    scenario: &'s Scenario,
+    // Instances borrow nothing from the Fmu values but need their libraries kept alive;
+    // declared before `fmus` so they are dropped (freed) first.
+    instances: Vec<Instance>,
+    fmus: Vec<Fmu>,
+    wiring: Vec<Wiring>,
+    bus: Vec<f64>,
+    channels: Vec<Channel>,
+    /// One sample: recorded columns, then the six leg errors, then x, y, z.
+    row: Vec<f64>,
+    column_names: Vec<String>,
+    has_error: bool,
+    has_pose: bool,
+    initialized_once: bool,
+}
+
+impl<'s> Master<'s> {
+    /// Instantiates every FMU of `scenario` (already opened as `fmus`, in scenario order)
+    /// and resolves the wiring.
+    pub fn new(scenario: &'s Scenario, fmus: Vec<Fmu>, logging: bool) -> Result<Self, MasterError> {
+        let mut instances = Vec::with_capacity(fmus.len());
+        for (spec, fmu) in scenario.fmus.iter().zip(&fmus) {
+            let inst = fmu.instantiate(&spec.name, logging).map_err(|source| {
+                MasterError::Instantiate {
+                    fmu: spec.name.clone(),
+                    source,
+                }
+            })?;
+            instances.push(inst);
+        }
+        // Every output anyone needs gets a bus slot, grouped per FMU.
+        let n = scenario.fmus.len();
+        let mut needed: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut need = |p: &Port| {
+            for &vr in &p.value_references {
+                if !needed[p.fmu].contains(&vr) {
+                    needed[p.fmu].push(vr);
+                }
+            }
+        };
+        for l in scenario.connections.iter().chain(&scenario.memory) {
+            need(&l.from);
+        }
+        for p in &scenario.record.ports {
+            need(p);
+        }
+        if let Some(m) = &scenario.metrics {
+            need(&m.error);
+            if let Some(p) = &m.pose {
+                need(p);
+            }
+        }
+        let mut wiring = Vec::with_capacity(n);
+        let mut next = 0;
+        for vrs in needed {
+            let range = next..next + vrs.len();
+            next = range.end;
+            wiring.push(Wiring {
+                out_vrs: vrs,
+                bus_range: range,
+                in_vrs: Vec::new(),
+                in_src: Vec::new(),
+                in_buf: Vec::new(),
+                record_before: Vec::new(),
+                record_after: Vec::new(),
+            });
+        }
+        let slot = |wiring: &[Wiring], fmu: usize, vr: u32| {
+            let w = &wiring[fmu];
+            w.bus_range.start
+                + w.out_vrs
+                    .iter()
+                    .position(|&x| x == vr)
+                    .expect("every needed output has a slot")
+        };
+        for l in &scenario.connections {
+            for (i, &vr) in l.to.value_references.iter().enumerate() {
+                let s = slot(&wiring, l.from.fmu, l.from.value_references[i]);
+                let w = &mut wiring[l.to.fmu];
+                w.in_vrs.push(vr);
+                w.in_src.push(Source::Bus(s));
+            }
+        }
+        let steps = scenario.steps;
+        let mut channels = Vec::new();
+        for (c, l) in scenario.memory.iter().enumerate() {
+            let width = l.from.value_references.len();
+            let from_slots = l
+                .from
+                .value_references
+                .iter()
+                .map(|&vr| slot(&wiring, l.from.fmu, vr))
+                .collect();
+            for (i, &vr) in l.to.value_references.iter().enumerate() {
+                let w = &mut wiring[l.to.fmu];
+                w.in_vrs.push(vr);
+                w.in_src.push(Source::Memory(c, i));
+            }
+            channels.push(Channel {
+                width,
+                from_slots,
+                producer: l.from.fmu,
+                read: vec![0.0; steps * width],
+                write: vec![0.0; steps * width],
+            });
+        }
+        let mut column_names = Vec::new();
+        let mut taps: Vec<&Port> = scenario.record.ports.iter().collect();
+        let metrics = scenario.metrics.as_ref();
+        taps.extend(metrics.map(|m| &m.error));
+        taps.extend(metrics.and_then(|m| m.pose.as_ref()));
+        let mut columns = 0;
+        for (t, p) in taps.iter().enumerate() {
+            let is_record = t < scenario.record.ports.len();
+            // The pose port may be longer than x, y, z; only those three are tapped.
+            let take = if is_record || !metrics.is_some_and(|m| m.pose.as_ref() == Some(*p)) {
+                p.value_references.len()
+            } else {
+                3
+            };
+            for (i, &vr) in p.value_references.iter().take(take).enumerate() {
+                if is_record {
+                    column_names.push(p.names[i].clone());
+                }
+                let s = slot(&wiring, p.fmu, vr);
+                let w = &mut wiring[p.fmu];
+                if p.sampled {
+                    w.record_after.push((s, columns))
+                } else {
+                    w.record_before.push((s, columns))
+                }
+                columns += 1;
+            }
+        }
+        for w in &mut wiring {
+            w.in_buf = vec![0.0; w.in_vrs.len()];
+        }
+        Ok(Self {
+            scenario,
+            instances,
+            fmus,
+            bus: vec![0.0; next],
+            channels,
+            row: vec![0.0; columns],
+            column_names,
+            wiring,
+            has_error: metrics.is_some(),
+            has_pose: metrics.is_some_and(|m| m.pose.is_some()),
+            initialized_once: false,
+        })
+    }
+
+    /// Names of the recorded columns (after `time`).
+    pub fn column_names(&self) -> &[String] {
+        &self.column_names
+    }
+
+    /// The loaded FMUs, in scenario order.
+    pub fn fmus(&self) -> &[Fmu] {
+        &self.fmus
+    }
+
+    /// Memory channels as (names of the producing outputs, read buffer `[sample][element]`).
+    pub fn memory_names(&self) -> Vec<String> {
+        self.scenario
+            .memory
+            .iter()
+            .flat_map(|l| l.from.names.iter().cloned())
+            .collect()
+    }
+
+    /// The read buffers (memory used by the next trial), channel by channel.
+    pub fn memory(&self) -> Vec<&[f64]> {
+        self.channels.iter().map(|c| c.read.as_slice()).collect()
+    }
+
+    /// Replaces the read buffers (resume): one slice per channel, `steps × width` long.
+    pub fn set_memory(&mut self, data: &[Vec<f64>]) {
+        for (c, d) in self.channels.iter_mut().zip(data) {
+            c.read.copy_from_slice(d);
+        }
+    }
+
+    /// A fresh recording with room for one trial.
+    pub fn new_recording(&self) -> Recording {
+        let rows = self.scenario.steps.div_ceil(self.scenario.record.interval);
+        Recording::with_capacity(self.column_names.clone(), rows)
+    }
+
+    /// Full-rate signal storage for one trial.
+    pub fn new_signals(&self) -> TrialSignals {
+        let n = self.scenario.steps;
+        TrialSignals {
+            time: Vec::with_capacity(n),
+            error: std::array::from_fn(|_| Vec::with_capacity(n)),
+            position: Vec::with_capacity(if self.has_pose { n } else { 0 }),
+        }
+    }
+
+    fn start_trial(&mut self, trial: usize) -> Result<(), MasterError> {
+        let sc = self.scenario;
+        for (k, inst) in self.instances.iter_mut().enumerate() {
+            let spec = &sc.fmus[k];
+            let setup = |what: &'static str| {
+                move |source| MasterError::Setup {
+                    trial,
+                    fmu: spec.name.clone(),
+                    what,
+                    source,
+                }
+            };
+            if self.initialized_once {
+                inst.reset().map_err(setup("fmi2Reset"))?;
+            }
+            for s in &spec.settings {
+                match s.value {
+                    Value::Real(x) => inst.set_real(&[s.value_reference], &[x]).map(|_| ()),
+                    Value::Integer(x) => inst.set_integer(&[s.value_reference], &[x]).map(|_| ()),
+                    Value::Boolean(x) => inst.set_boolean(&[s.value_reference], &[x]).map(|_| ()),
+                }
+                .map_err(setup("setting parameters"))?;
+            }
+            inst.setup_experiment(None, sc.start_time, Some(sc.stop_time))
+                .map_err(setup("fmi2SetupExperiment"))?;
+            inst.enter_initialization_mode()
+                .map_err(setup("fmi2EnterInitializationMode"))?;
+        }
+        for (k, inst) in self.instances.iter_mut().enumerate() {
+            let spec = &sc.fmus[k];
+            inst.exit_initialization_mode()
+                .map_err(|source| MasterError::Setup {
+                    trial,
+                    fmu: spec.name.clone(),
+                    what: "fmi2ExitInitializationMode",
+                    source,
+                })?;
+            let w = &self.wiring[k];
+            inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
+                .map_err(|source| MasterError::Setup {
+                    trial,
+                    fmu: spec.name.clone(),
+                    what: "fmi2GetReal",
+                    source,
+                })?;
+        }
+        self.initialized_once = true;
+        Ok(())
+    }
+
+    /// Runs trial `trial` with the current read buffers, filling the write buffers,
+    /// `recording` (if given; cleared first) and `signals` (cleared first). On success the
+    /// write buffers become the read buffers (the memory of the next trial).
+    pub fn run_trial(
+        &mut self,
+        trial: usize,
+        mut recording: Option<&mut Recording>,
+        signals: &mut TrialSignals,
+        mut on_step: impl FnMut(usize),
+    ) -> Result<(), MasterError> {
+        let sc = self.scenario;
+        self.start_trial(trial)?;
+        if let Some(r) = recording.as_deref_mut() {
+            r.time.clear();
+            for c in &mut r.columns {
+                c.clear();
+            }
+        }
+        signals.time.clear();
+        for e in &mut signals.error {
+            e.clear();
+        }
+        signals.position.clear();
+        let h = sc.step_size;
+        let interval = sc.record.interval;
+        for n in 0..sc.steps {
+            let t = sc.time(n);
+            for k in 0..self.instances.len() {
+                let w = &mut self.wiring[k];
+                for &(s, col) in &w.record_before {
+                    self.row[col] = self.bus[s];
+                }
+                if !w.in_vrs.is_empty() {
+                    for (dst, src) in w.in_buf.iter_mut().zip(&w.in_src) {
+                        *dst = match *src {
+                            Source::Bus(s) => self.bus[s],
+                            Source::Memory(c, i) => {
+                                let ch = &self.channels[c];
+                                ch.read[n * ch.width + i]
+                            }
+                        };
+                    }
+                    let inst = &mut self.instances[k];
+                    inst.set_real(&w.in_vrs, &w.in_buf)
+                        .map_err(|source| MasterError::Call {
+                            trial,
+                            time: t,
+                            fmu: sc.fmus[k].name.clone(),
+                            what: "fmi2SetReal",
+                            source,
+                        })?;
+                }
+                let inst = &mut self.instances[k];
+                inst.do_step(t, h, true)
+                    .map_err(|source| MasterError::Call {
+                        trial,
+                        time: t,
+                        fmu: sc.fmus[k].name.clone(),
+                        what: "fmi2DoStep",
+                        source,
+                    })?;
+                inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
+                    .map_err(|source| MasterError::Call {
+                        trial,
+                        time: t + h,
+                        fmu: sc.fmus[k].name.clone(),
+                        what: "fmi2GetReal",
+                        source,
+                    })?;
+                for &(s, col) in &w.record_after {
+                    self.row[col] = self.bus[s];
+                }
+                for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
+                    let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];
+                    for (d, &s) in dst.iter_mut().zip(&ch.from_slots) {
+                        *d = self.bus[s];
+                    }
+                }
+            }
+            let ncols = self.column_names.len();
+            if self.has_error {
+                for (leg, e) in signals.error.iter_mut().enumerate() {
+                    e.push(self.row[ncols + leg]);
+                }
+            }
+            if self.has_pose {
+                let p = &self.row[ncols + 6..ncols + 9];
+                signals.position.push([p[0], p[1], p[2]]);
+            }
+            signals.time.push(t);
+            if n % interval == 0 {
+                if let Some(r) = recording.as_deref_mut() {
+                    r.push_row(t, &self.row[..ncols]);
+                }
+            }
+            on_step(n);
+        }
+        for ch in &mut self.channels {
+            std::mem::swap(&mut ch.read, &mut ch.write);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,764 @@
+//! Scenario files: a TOML description of FMUs, connections, iteration-memory channels,
+//! timing, recording and metrics, validated once into a typed [`Scenario`].
+//!
+//! Every semantic error names the file and the line of the offending entry, e.g.
+//! `line.toml:23: connection from "plant.lenght": CkcmPlant has no variable "lenght"`.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use fmi2::export::{Causality, VarType};
+use fmi2::md::{ModelDescription, SimpleTypeKind, VariableKind};
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A scenario problem: file, line (when known) and message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}{}: {message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct ScenarioError {
+    pub file: PathBuf,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScenario {
+    step_size: Spanned<f64>,
+    stop_time: Spanned<f64>,
+    #[serde(default)]
+    start_time: f64,
+    #[serde(default = "one")]
+    trials: Spanned<usize>,
+    #[serde(rename = "fmu")]
+    fmus: Vec<RawFmu>,
+    #[serde(default, rename = "connection")]
+    connections: Vec<RawLink>,
+    #[serde(default)]
+    memory: Vec<RawLink>,
+    #[serde(default = "no_record")]
+    record: RawRecord,
+    #[serde(default)]
+    metrics: Option<RawMetrics>,
+}
+
+fn no_record() -> RawRecord {
+    RawRecord {
+        variables: Vec::new(),
+        interval: one(),
+        trials: None,
+    }
+}
+
+fn one() -> Spanned<usize> {
+    Spanned::new(0..0, 1)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFmu {
+    name: Spanned<String>,
+    path: Spanned<String>,
+    #[serde(default)]
+    parameters: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLink {
+    from: Spanned<String>,
+    to: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRecord {
+    #[serde(default)]
+    variables: Vec<Spanned<String>>,
+    /// Record every n-th sample.
+    #[serde(default = "one")]
+    interval: Spanned<usize>,
+    /// Trials to record (default: all).
+    #[serde(default)]
+    trials: Option<Spanned<Vec<usize>>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMetrics {
+    error: Spanned<String>,
+    #[serde(default = "default_rho")]
+    rho: Spanned<f64>,
+    #[serde(default)]
+    pose: Option<Spanned<String>>,
+    #[serde(default)]
+    trajectory: Option<Spanned<RawTrajectory>>,
+}
+
+fn default_rho() -> Spanned<f64> {
+    Spanned::new(0..0, DEFAULT_RHO)
+}
+
+/// Default weight of the λ-norm, 1/s.
+pub const DEFAULT_RHO: f64 = 1.0;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTrajectory {
+    kind: String,
+    duration: f64,
+    #[serde(default = "default_home")]
+    home_height: f64,
+}
+
+fn default_home() -> f64 {
+    0.5
+}
+
+/// A value to set before initialization.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Value {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+}
+
+/// One parameter (or input start value) assignment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setting {
+    pub name: String,
+    pub value_reference: u32,
+    pub value: Value,
+}
+
+/// One FMU of the scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FmuSpec {
+    /// Instance name, used in `name.variable` references.
+    pub name: String,
+    /// Path of the `.fmu`, resolved against the scenario file's directory.
+    pub path: PathBuf,
+    pub settings: Vec<Setting>,
+}
+
+/// A contiguous group of scalar variables of one FMU: `plant.length` is `length[1..6]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Port {
+    /// Index into [`Scenario::fmus`].
+    pub fmu: usize,
+    /// Reference as written, e.g. `plant.length`.
+    pub reference: String,
+    /// Scalar names, e.g. `plant.length[1]`.
+    pub names: Vec<String>,
+    pub value_references: Vec<u32>,
+    pub var_type: VarType,
+    /// Whether the values are held over a step (discrete outputs: recorded after the step)
+    /// rather than values at the communication point (recorded before the step).
+    pub sampled: bool,
+}
+
+/// An output → input coupling, or an iteration-memory channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Link {
+    pub from: Port,
+    pub to: Port,
+}
+
+/// What to record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Record {
+    pub ports: Vec<Port>,
+    /// Record every n-th sample.
+    pub interval: usize,
+    /// Trials to record; `None` means all.
+    pub trials: Option<BTreeSet<usize>>,
+}
+
+impl Record {
+    /// Whether trial `k` is recorded.
+    pub fn records_trial(&self, k: usize) -> bool {
+        !self.ports.is_empty() && self.trials.as_ref().is_none_or(|t| t.contains(&k))
+    }
+}
+
+/// What the per-trial summary measures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Metrics {
+    /// Six leg errors.
+    pub error: Port,
+    /// λ-norm weight ρ, 1/s.
+    pub rho: f64,
+    /// Platform pose (x, y, z, ...) for the Cartesian path error.
+    pub pose: Option<Port>,
+    /// Desired path for the Cartesian path error.
+    pub trajectory: Option<ckcm::Trajectory>,
+}
+
+/// A validated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    pub source: PathBuf,
+    pub step_size: f64,
+    pub start_time: f64,
+    pub stop_time: f64,
+    /// Macro steps per trial: round((stop − start) / h).
+    pub steps: usize,
+    pub trials: usize,
+    /// FMUs in stepping (Gauss–Seidel) order.
+    pub fmus: Vec<FmuSpec>,
+    pub connections: Vec<Link>,
+    pub memory: Vec<Link>,
+    pub record: Record,
+    pub metrics: Option<Metrics>,
+}
+
+/// Line (1-based) of a byte offset.
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+struct Ctx<'a> {
+    file: &'a Path,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err<T>(
+        &self,
+        span: std::ops::Range<usize>,
+        message: impl Into<String>,
+    ) -> Result<T, ScenarioError> {
+        Err(ScenarioError {
+            file: self.file.to_path_buf(),
+            line: (span.end > 0).then(|| line_of(self.text, span.start)),
+            message: message.into(),
+        })
+    }
+}
+
+impl Scenario {
+    /// Reads and validates a scenario file; `describe` yields the model description of an
+    /// FMU path (the caller opens the FMU, so validation and loading share one unzip).
+    pub fn load(
+        file: &Path,
+        describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
+    ) -> Result<Scenario, ScenarioError> {
+        let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
+            file: file.to_path_buf(),
+            line: None,
+            message: format!("cannot read the scenario: {e}"),
+        })?;
+        Self::parse(&text, file, describe)
+    }
+
+    /// Validates scenario `text` read from `file` (used for messages and relative paths).
+    pub fn parse(
+        text: &str,
+        file: &Path,
+        mut describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
+    ) -> Result<Scenario, ScenarioError> {
+        let cx = Ctx { file, text };
+        let raw: RawScenario = toml::from_str(text).map_err(|e| ScenarioError {
+            file: file.to_path_buf(),
+            line: e.span().map(|s| line_of(text, s.start)),
+            message: e.message().to_string(),
+        })?;
+        let h = *raw.step_size.get_ref();
+        if !(h.is_finite() && h > 0.0) {
+            return cx.err(
+                raw.step_size.span(),
+                format!("step_size = {h} must be positive"),
+            );
+        }
+        let span_stop = raw.stop_time.span();
+        let stop = raw.stop_time.into_inner();
+        if !(stop.is_finite() && stop > raw.start_time) {
+            return cx.err(
+                span_stop,
+                format!(
+                    "stop_time = {stop} must exceed start_time = {}",
+                    raw.start_time
+                ),
+            );
+        }
+        let steps_f = (stop - raw.start_time) / h;
+        let steps = steps_f.round() as usize;
+        if (steps_f - steps as f64).abs() > 1e-6 * steps_f.max(1.0) {
+            return cx.err(
+                span_stop,
+                format!(
+                    "stop_time − start_time = {} is not a whole number of steps of {h} s",
+                    stop - raw.start_time
+                ),
+            );
+        }
+        if *raw.trials.get_ref() == 0 {
+            return cx.err(raw.trials.span(), "trials must be at least 1");
+        }
+        if raw.fmus.is_empty() {
+            return cx.err(0..0, "no [[fmu]] entries");
+        }
+        let base = file.parent().unwrap_or(Path::new("."));
+        let mut fmus = Vec::new();
+        let mut mds = Vec::new();
+        for f in &raw.fmus {
+            let name = f.name.get_ref();
+            if name.is_empty() || name.contains('.') || name.contains(char::is_whitespace) {
+                return cx.err(
+                    f.name.span(),
+                    format!("FMU name {name:?} must be non-empty, without dots or spaces"),
+                );
+            }
+            if fmus.iter().any(|x: &FmuSpec| &x.name == name) {
+                return cx.err(f.name.span(), format!("FMU name {name:?} is used twice"));
+            }
+            let path = base.join(f.path.get_ref());
+            let md = match describe(&path) {
+                Ok(md) => md,
+                Err(e) => return cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+            };
+            let mut settings = Vec::new();
+            for (key, value) in &f.parameters {
+                settings.extend(parameter_settings(&cx, &md, key, value)?);
+            }
+            fmus.push(FmuSpec {
+                name: name.clone(),
+                path,
+                settings,
+            });
+            mds.push(md);
+        }
+        let resolve = |r: &Spanned<String>, what: &str| resolve_port(&cx, &fmus, &mds, r, what);
+        let mut connections = Vec::new();
+        for c in &raw.connections {
+            let from = resolve(&c.from, "connection from")?;
+            let to = resolve(&c.to, "connection to")?;
+            check_link(&cx, &mds, c, &from, &to, "connection")?;
+            connections.push(Link { from, to });
+        }
+        let mut memory = Vec::new();
+        for c in &raw.memory {
+            let from = resolve(&c.from, "memory from")?;
+            let to = resolve(&c.to, "memory to")?;
+            check_link(&cx, &mds, c, &from, &to, "memory channel")?;
+            if from.var_type != VarType::Real {
+                return cx.err(
+                    c.from.span(),
+                    format!("memory channel {:?} must be Real", c.from.get_ref()),
+                );
+            }
+            memory.push(Link { from, to });
+        }
+        // An input fed twice would silently depend on the order of the entries.
+        let mut fed = BTreeSet::new();
+        for (link, raw_link) in connections
+            .iter()
+            .chain(&memory)
+            .zip(raw.connections.iter().chain(&raw.memory))
+        {
+            for vr in &link.to.value_references {
+                if !fed.insert((link.to.fmu, *vr)) {
+                    return cx.err(
+                        raw_link.to.span(),
+                        format!(
+                            "input {:?} is fed by more than one connection",
+                            raw_link.to.get_ref()
+                        ),
+                    );
+                }
+            }
+        }
+        let mut ports = Vec::new();
+        for r in &raw.record.variables {
+            let p = resolve(r, "record")?;
+            if p.var_type != VarType::Real {
+                return cx.err(
+                    r.span(),
+                    format!(
+                        "record: {:?} is not Real; only Real variables are recorded",
+                        r.get_ref()
+                    ),
+                );
+            }
+            ports.push(p);
+        }
+        let interval = *raw.record.interval.get_ref();
+        if interval == 0 {
+            return cx.err(
+                raw.record.interval.span(),
+                "record.interval must be at least 1",
+            );
+        }
+        let trials = *raw.trials.get_ref();
+        let rec_trials = match &raw.record.trials {
+            None => None,
+            Some(t) => {
+                if let Some(bad) = t.get_ref().iter().find(|&&k| k >= trials) {
+                    return cx.err(
+                        t.span(),
+                        format!(
+                            "record.trials lists trial {bad}, but trials are numbered 0..{}",
+                            trials - 1
+                        ),
+                    );
+                }
+                Some(t.get_ref().iter().copied().collect())
+            }
+        };
+        let metrics = match &raw.metrics {
+            None => None,
+            Some(m) => {
+                let error = resolve(&m.error, "metrics.error")?;
+                if error.names.len() != 6 || error.var_type != VarType::Real {
+                    return cx.err(
+                        m.error.span(),
+                        format!(
+                            "metrics.error {:?} must be six Real variables (one per leg)",
+                            m.error.get_ref()
+                        ),
+                    );
+                }
+                let rho = *m.rho.get_ref();
+                if !(rho.is_finite() && rho >= 0.0) {
+                    return cx.err(
+                        m.rho.span(),
+                        format!("metrics.rho = {rho} must be a non-negative number"),
+                    );
+                }
+                let pose = match &m.pose {
+                    None => None,
+                    Some(p) => {
+                        let port = resolve(p, "metrics.pose")?;
+                        if port.names.len() < 3 || port.var_type != VarType::Real {
+                            return cx.err(p.span(), format!("metrics.pose {:?} must be at least three Real variables (x, y, z)", p.get_ref()));
+                        }
+                        Some(port)
+                    }
+                };
+                let trajectory = match &m.trajectory {
+                    None => None,
+                    Some(t) => Some(parse_trajectory(&cx, t)?),
+                };
+                if pose.is_some() != trajectory.is_some() {
+                    return cx.err(m.error.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
+                }
+                Some(Metrics {
+                    error,
+                    rho,
+                    pose,
+                    trajectory,
+                })
+            }
+        };
+        Ok(Scenario {
+            source: file.to_path_buf(),
+            step_size: h,
+            start_time: raw.start_time,
+            stop_time: stop,
+            steps,
+            trials,
+            fmus,
+            connections,
+            memory,
+            record: Record {
+                ports,
+                interval,
+                trials: rec_trials,
+            },
+            metrics,
+        })
+    }
+
+    /// Time of sample n: t_n = t_0 + n·h, never accumulated.
+    #[inline]
+    pub fn time(&self, n: usize) -> f64 {
+        self.start_time + n as f64 * self.step_size
+    }
+}
+
+fn parse_trajectory(
+    cx: &Ctx<'_>,
+    t: &Spanned<RawTrajectory>,
+) -> Result<ckcm::Trajectory, ScenarioError> {
+    let r = t.get_ref();
+    let kind = match r.kind.as_str() {
+        "hold" => ckcm::TrajectoryKind::Hold,
+        "line" => ckcm::TrajectoryKind::Line,
+        "circle" => ckcm::TrajectoryKind::Circle,
+        other => {
+            return cx.err(
+                t.span(),
+                format!("metrics.trajectory.kind {other:?} is not one of hold, line, circle"),
+            );
+        }
+    };
+    if !(r.duration > 0.0 && r.home_height > 0.0) {
+        return cx.err(
+            t.span(),
+            "metrics.trajectory needs duration > 0 and home_height > 0",
+        );
+    }
+    Ok(ckcm::Trajectory {
+        kind,
+        duration: r.duration,
+        home_height: r.home_height,
+    })
+}
+
+fn check_link(
+    cx: &Ctx<'_>,
+    mds: &[ModelDescription],
+    raw: &RawLink,
+    from: &Port,
+    to: &Port,
+    what: &str,
+) -> Result<(), ScenarioError> {
+    let causality = |p: &Port, i: usize| {
+        mds[p.fmu]
+            .model_variables
+            .iter()
+            .find(|v| v.value_reference == p.value_references[i] && v.var_type() == p.var_type)
+            .map(|v| v.causality)
+    };
+    for i in 0..from.names.len() {
+        if causality(from, i) != Some(Causality::Output) {
+            return cx.err(
+                raw.from.span(),
+                format!(
+                    "{what} from {:?}: {} is not an output",
+                    raw.from.get_ref(),
+                    from.names[i]
+                ),
+            );
+        }
+    }
+    for i in 0..to.names.len() {
+        if causality(to, i) != Some(Causality::Input) {
+            return cx.err(
+                raw.to.span(),
+                format!(
+                    "{what} to {:?}: {} is not an input",
+                    raw.to.get_ref(),
+                    to.names[i]
+                ),
+            );
+        }
+    }
+    if from.names.len() != to.names.len() {
+        return cx.err(
+            raw.to.span(),
+            format!(
+                "{what} {:?} → {:?}: sizes differ ({} vs {})",
+                raw.from.get_ref(),
+                raw.to.get_ref(),
+                from.names.len(),
+                to.names.len()
+            ),
+        );
+    }
+    let compatible = from.var_type == to.var_type
+        || matches!(
+            (from.var_type, to.var_type),
+            (VarType::Integer, VarType::Enumeration) | (VarType::Enumeration, VarType::Integer)
+        );
+    if !compatible {
+        return cx.err(
+            raw.to.span(),
+            format!(
+                "{what} {:?} → {:?}: types differ ({:?} vs {:?})",
+                raw.from.get_ref(),
+                raw.to.get_ref(),
+                from.var_type,
+                to.var_type
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Scalars named `base` or `base[i]` (sorted by i) in `md`.
+fn scalars<'a>(md: &'a ModelDescription, base: &str) -> Vec<&'a fmi2::md::ScalarVariable> {
+    if let Some(v) = md.model_variables.iter().find(|v| v.name == base) {
+        return vec![v];
+    }
+    let mut found: Vec<(usize, &fmi2::md::ScalarVariable)> = md
+        .model_variables
+        .iter()
+        .filter_map(|v| {
+            let rest = v
+                .name
+                .strip_prefix(base)?
+                .strip_prefix('[')?
+                .strip_suffix(']')?;
+            rest.parse::<usize>().ok().map(|i| (i, v))
+        })
+        .collect();
+    found.sort_by_key(|(i, _)| *i);
+    found.into_iter().map(|(_, v)| v).collect()
+}
+
+fn resolve_port(
+    cx: &Ctx<'_>,
+    fmus: &[FmuSpec],
+    mds: &[ModelDescription],
+    r: &Spanned<String>,
+    what: &str,
+) -> Result<Port, ScenarioError> {
+    let reference = r.get_ref();
+    let Some((fmu_name, var)) = reference.split_once('.') else {
+        return cx.err(
+            r.span(),
+            format!("{what} {reference:?}: expected \"fmu.variable\""),
+        );
+    };
+    let Some(fmu) = fmus.iter().position(|f| f.name == fmu_name) else {
+        let known: Vec<_> = fmus.iter().map(|f| f.name.as_str()).collect();
+        return cx.err(
+            r.span(),
+            format!(
+                "{what} {reference:?}: no FMU named {fmu_name:?} (known: {})",
+                known.join(", ")
+            ),
+        );
+    };
+    let md = &mds[fmu];
+    let vars = scalars(md, var);
+    if vars.is_empty() {
+        return cx.err(
+            r.span(),
+            format!(
+                "{what} {reference:?}: {} has no variable {var:?}",
+                md.model_name
+            ),
+        );
+    }
+    let var_type = vars[0].var_type();
+    if vars.iter().any(|v| v.var_type() != var_type) {
+        return cx.err(
+            r.span(),
+            format!("{what} {reference:?}: the elements have different types"),
+        );
+    }
+    Ok(Port {
+        fmu,
+        reference: reference.clone(),
+        names: vars
+            .iter()
+            .map(|v| format!("{fmu_name}.{}", v.name))
+            .collect(),
+        value_references: vars.iter().map(|v| v.value_reference).collect(),
+        var_type,
+        sampled: vars
+            .iter()
+            .all(|v| v.variability == fmi2::export::Variability::Discrete),
+    })
+}
+
+fn parameter_settings(
+    cx: &Ctx<'_>,
+    md: &ModelDescription,
+    key: &Spanned<String>,
+    value: &Spanned<toml::Value>,
+) -> Result<Vec<Setting>, ScenarioError> {
+    let name = key.get_ref();
+    let vars = scalars(md, name);
+    if vars.is_empty() {
+        return cx.err(
+            key.span(),
+            format!(
+                "parameter {name:?}: {} has no variable {name:?}",
+                md.model_name
+            ),
+        );
+    }
+    let values: Vec<&toml::Value> = match value.get_ref() {
+        toml::Value::Array(items) => items.iter().collect(),
+        single => vec![single],
+    };
+    if values.len() != vars.len() {
+        return cx.err(
+            value.span(),
+            format!(
+                "parameter {name:?} has {} elements, the value gives {}",
+                vars.len(),
+                values.len()
+            ),
+        );
+    }
+    let mut out = Vec::new();
+    for (v, x) in vars.iter().zip(values) {
+        if !matches!(v.causality, Causality::Parameter | Causality::Input) {
+            return cx.err(
+                key.span(),
+                format!(
+                    "{:?} is {:?}, not a parameter or input: it cannot be set in a scenario",
+                    v.name, v.causality
+                ),
+            );
+        }
+        let bad = |expected: &str| {
+            cx.err(
+                value.span(),
+                format!("{:?} expects {expected}, got {x}", v.name),
+            )
+        };
+        let parsed = match (&v.kind, x) {
+            (VariableKind::Real { .. }, toml::Value::Float(f)) => Value::Real(*f),
+            (VariableKind::Real { .. }, toml::Value::Integer(i)) => Value::Real(*i as f64),
+            (VariableKind::Real { .. }, _) => return bad("a number"),
+            (VariableKind::Integer { .. }, toml::Value::Integer(i)) => match i32::try_from(*i) {
+                Ok(i) => Value::Integer(i),
+                Err(_) => return bad("a 32-bit integer"),
+            },
+            (VariableKind::Integer { .. }, _) => return bad("an integer"),
+            (VariableKind::Boolean { .. }, toml::Value::Boolean(b)) => Value::Boolean(*b),
+            (VariableKind::Boolean { .. }, _) => return bad("true or false"),
+            (VariableKind::Enumeration { declared_type, .. }, x) => {
+                let items = md
+                    .type_definitions
+                    .iter()
+                    .find(|t| &t.name == declared_type)
+                    .and_then(|t| match &t.kind {
+                        SimpleTypeKind::Enumeration { items, .. } => Some(items),
+                        _ => None,
+                    });
+                let names = items
+                    .map(|i| {
+                        i.iter()
+                            .map(|i| i.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    })
+                    .unwrap_or_default();
+                match x {
+                    toml::Value::String(s) => {
+                        match items.and_then(|i| i.iter().find(|i| &i.name == s)) {
+                            Some(item) => Value::Integer(item.value),
+                            None => return bad(&format!("one of {names}")),
+                        }
+                    }
+                    toml::Value::Integer(i) => {
+                        match items.and_then(|it| it.iter().find(|it| i64::from(it.value) == *i)) {
+                            Some(item) => Value::Integer(item.value),
+                            None => return bad(&format!("one of {names}")),
+                        }
+                    }
+                    _ => return bad(&format!("one of {names}")),
+                }
+            }
+            (VariableKind::String { .. }, _) => {
+                return bad("no value: String parameters are not supported");
+            }
+        };
+        out.push(Setting {
+            name: v.name.clone(),
+            value_reference: v.value_reference,
+            value: parsed,
+        });
+    }
+    Ok(out)
+}
