@@ -103,36 +103,67 @@ const STATUS: u16 = STEP_COMPLETE | STEP_FAILED | TERMINATED;
 /// fmi2GetTypesPlatform, fmi2GetVersion and fmi2Instantiate).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Function {
+    /// `fmi2SetDebugLogging`.
     SetDebugLogging,
+    /// `fmi2FreeInstance`.
     FreeInstance,
+    /// `fmi2SetupExperiment`.
     SetupExperiment,
+    /// `fmi2EnterInitializationMode`.
     EnterInitializationMode,
+    /// `fmi2ExitInitializationMode`.
     ExitInitializationMode,
+    /// `fmi2Terminate`.
     Terminate,
+    /// `fmi2Reset`.
     Reset,
+    /// `fmi2GetReal`.
     GetReal,
+    /// `fmi2GetInteger`.
     GetInteger,
+    /// `fmi2GetBoolean`.
     GetBoolean,
+    /// `fmi2GetString`.
     GetString,
+    /// `fmi2SetReal`.
     SetReal,
+    /// `fmi2SetInteger`.
     SetInteger,
+    /// `fmi2SetBoolean`.
     SetBoolean,
+    /// `fmi2SetString`.
     SetString,
+    /// `fmi2GetFMUstate`.
     GetFmuState,
+    /// `fmi2SetFMUstate`.
     SetFmuState,
+    /// `fmi2FreeFMUstate`.
     FreeFmuState,
+    /// `fmi2SerializedFMUstateSize`.
     SerializedFmuStateSize,
+    /// `fmi2SerializeFMUstate`.
     SerializeFmuState,
+    /// `fmi2DeSerializeFMUstate`.
     DeSerializeFmuState,
+    /// `fmi2GetDirectionalDerivative`.
     GetDirectionalDerivative,
+    /// `fmi2SetRealInputDerivatives`.
     SetRealInputDerivatives,
+    /// `fmi2GetRealOutputDerivatives`.
     GetRealOutputDerivatives,
+    /// `fmi2DoStep`.
     DoStep,
+    /// `fmi2CancelStep`.
     CancelStep,
+    /// `fmi2GetStatus`.
     GetStatus,
+    /// `fmi2GetRealStatus`.
     GetRealStatus,
+    /// `fmi2GetIntegerStatus`.
     GetIntegerStatus,
+    /// `fmi2GetBooleanStatus`.
     GetBooleanStatus,
+    /// `fmi2GetStringStatus`.
     GetStringStatus,
 }
 
