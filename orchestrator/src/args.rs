@@ -95,12 +95,15 @@ pub struct PaperArgs {
     /// Output directory.
     #[arg(short, long, default_value = "results/paper")]
     pub out: PathBuf,
-    /// Trials per scheme (at least 3: the claims compare trials 0, 2 and 3).
+    /// Trials per scheme (at least 5: the claims compare trials 0, 2, 3 and 4).
     #[arg(long, default_value_t = 10)]
     pub trials: usize,
-    /// Shorten both trajectories to this many seconds (tests; the paper uses 15 s and 5 s).
-    #[arg(long)]
-    pub duration_scale: Option<f64>,
+    /// Line duration in s (the paper: 15; shorter for quick checks).
+    #[arg(long, default_value_t = 15.0)]
+    pub line_duration: f64,
+    /// Circle duration in s (the paper: 5).
+    #[arg(long, default_value_t = 5.0)]
+    pub circle_duration: f64,
     /// Continue an interrupted study.
     #[arg(long)]
     pub resume: bool,

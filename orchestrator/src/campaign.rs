@@ -4,7 +4,8 @@
 //! Output directory layout:
 //! - `scenario.toml`: the scenario as run;
 //! - `trials/trial_NNN.csv`: recorded variables of each recorded trial;
-//! - `memory/after_trial_NNN.csv`: the iteration memory trial NNN produced (read by NNN+1);
+//! - `memory/after_trial_NNN.csv`: the iteration memory the last completed trial NNN produced
+//!   (read by trial NNN+1; older ones are removed once the next trial is recorded as done);
 //! - `summary.csv`: metrics of every completed trial;
 //! - `progress.toml`: completed trial count and a fingerprint of scenario and FMUs,
 //!   written last, so it never claims a trial whose files are missing.
@@ -309,6 +310,10 @@ pub fn run_campaign(
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
         let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", k + 1);
         write_atomic(&progress_file, |w| w.write_all(progress.as_bytes()))?;
+        // Resume needs only the newest memory; the older one is stale once progress moved on.
+        if k > 0 {
+            let _ = fs::remove_file(memory_csv(dir, k - 1));
+        }
     }
     bar.finish_and_clear();
     Ok(summaries)

@@ -5,4 +5,5 @@
 pub mod campaign;
 pub mod master;
 pub mod output;
+pub mod paper;
 pub mod scenario;

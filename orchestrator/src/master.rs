@@ -15,21 +15,21 @@ use crate::scenario::{Port, Scenario, Value};
 #[derive(Debug, thiserror::Error)]
 pub enum MasterError {
     #[error("cannot instantiate FMU {fmu:?}: {source}")]
-    Instantiate { fmu: String, source: ImportError },
+    Instantiate { fmu: String, source: Box<ImportError> },
     #[error("trial {trial}, t = {time} s: {what} of FMU {fmu:?} failed: {source}")]
     Call {
         trial: usize,
         time: f64,
         fmu: String,
         what: &'static str,
-        source: ImportError,
+        source: Box<ImportError>,
     },
     #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
     Setup {
         trial: usize,
         fmu: String,
         what: &'static str,
-        source: ImportError,
+        source: Box<ImportError>,
     },
 }
 
@@ -106,7 +106,7 @@ impl<'s> Master<'s> {
             let inst = fmu.instantiate(&spec.name, logging).map_err(|source| {
                 MasterError::Instantiate {
                     fmu: spec.name.clone(),
-                    source,
+                    source: Box::new(source),
                 }
             })?;
             instances.push(inst);
@@ -289,7 +289,7 @@ impl<'s> Master<'s> {
                     trial,
                     fmu: spec.name.clone(),
                     what,
-                    source,
+                    source: Box::new(source),
                 }
             };
             if self.initialized_once {
@@ -315,7 +315,7 @@ impl<'s> Master<'s> {
                     trial,
                     fmu: spec.name.clone(),
                     what: "fmi2ExitInitializationMode",
-                    source,
+                    source: Box::new(source),
                 })?;
             let w = &self.wiring[k];
             inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
@@ -323,7 +323,7 @@ impl<'s> Master<'s> {
                     trial,
                     fmu: spec.name.clone(),
                     what: "fmi2GetReal",
-                    source,
+                    source: Box::new(source),
                 })?;
         }
         self.initialized_once = true;
@@ -379,7 +379,7 @@ impl<'s> Master<'s> {
                             time: t,
                             fmu: sc.fmus[k].name.clone(),
                             what: "fmi2SetReal",
-                            source,
+                            source: Box::new(source),
                         })?;
                 }
                 let inst = &mut self.instances[k];
@@ -389,7 +389,7 @@ impl<'s> Master<'s> {
                         time: t,
                         fmu: sc.fmus[k].name.clone(),
                         what: "fmi2DoStep",
-                        source,
+                        source: Box::new(source),
                     })?;
                 inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
                     .map_err(|source| MasterError::Call {
@@ -397,7 +397,7 @@ impl<'s> Master<'s> {
                         time: t + h,
                         fmu: sc.fmus[k].name.clone(),
                         what: "fmi2GetReal",
-                        source,
+                        source: Box::new(source),
                     })?;
                 for &(s, col) in &w.record_after {
                     self.row[col] = self.bus[s];
