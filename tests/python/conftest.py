@@ -25,9 +25,7 @@ def fmu_dir() -> Path:
     """The directory holding CkcmPlant.fmu and HlcsController.fmu."""
     directory = default_fmu_dir()
     missing = [
-        name
-        for name in ("CkcmPlant.fmu", "HlcsController.fmu")
-        if not (directory / name).is_file()
+        name for name in ("CkcmPlant.fmu", "HlcsController.fmu") if not (directory / name).is_file()
     ]
     if missing:
         pytest.fail(

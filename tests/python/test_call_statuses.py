@@ -1,0 +1,56 @@
+"""Every FMI call fmpy makes on a full plant run returns fmi2OK (not even a warning)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from fmpy import simulate_fmu
+
+from master import legs
+
+#: fmpy logs `fmi2DoStep(...) -> OK`; other tools write `-> fmi2OK`. Calls returning a
+#: pointer log `-> 0x...` and void calls log no arrow, so neither matches.
+STATUS = re.compile(
+    r"^(fmi2\w+)\(.*\)\s*->\s*(?:fmi2)?(OK|Warning|Discard|Error|Fatal|Pending|\d+)\s*$",
+    re.IGNORECASE | re.DOTALL,
+)
+OK = {"ok", "0"}
+
+
+def test_every_call_of_a_plant_run_returns_ok(plant_fmu: Path) -> None:
+    log: list[str] = []
+    simulate_fmu(
+        str(plant_fmu),
+        fmi_type="CoSimulation",
+        output_interval=1e-3,
+        stop_time=2.0,
+        start_values={name: 28.5315 for name in legs("force")},
+        fmi_call_logger=log.append,
+    )
+    calls = [(line, m.group(1), m.group(2)) for line in log if (m := STATUS.match(line))]
+    # 2000 doSteps plus 2000 getReal calls at least: the check cannot pass on an empty log.
+    assert len(calls) > 2000, f"only {len(calls)} of {len(log)} log lines had a status"
+    assert sum(function == "fmi2DoStep" for _, function, _ in calls) == 2000
+    not_ok = [line for line, _, status in calls if status.lower() not in OK]
+    assert not not_ok, f"{len(not_ok)} calls did not return fmi2OK, e.g. {not_ok[:5]}"
+
+
+def test_status_parser_reads_both_spellings_and_skips_calls_without_status() -> None:
+    parsed = {
+        line: (m.group(1), m.group(2)) if (m := STATUS.match(line)) else None
+        for line in [
+            "fmi2DoStep(c=0x1, currentCommunicationPoint=0.0) -> OK",
+            "fmi2GetReal(c=0x1, vr=[1, 2], nvr=2, value=[0.5, (1)]) -> fmi2Warning",
+            "fmi2SetReal(c=0x1) -> 3",
+            'fmi2Instantiate(instanceName="p") -> 0x55b571d83480',
+            "fmi2FreeInstance(c=0x1)",
+        ]
+    }
+    assert list(parsed.values()) == [
+        ("fmi2DoStep", "OK"),
+        ("fmi2GetReal", "Warning"),
+        ("fmi2SetReal", "3"),
+        None,
+        None,
+    ]
