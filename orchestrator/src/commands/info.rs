@@ -1,11 +1,366 @@
-//! `info` subcommand.
+//! `info X.fmu`: what a user needs to know before simulating or connecting an FMU: identity,
+//! co-simulation capabilities, default experiment, log categories and a table of variables.
+//!
+//! The FMU is opened fully (unpacked, validated, binary loaded), so `info` also tells whether
+//! it would run here.
+
+use std::fmt::Write as _;
 
 use anyhow::Result;
+use fmi2::export::{Causality, Variability};
+use fmi2::import::Fmu;
+use fmi2::md::{
+    Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind,
+    VariableNamingConvention,
+};
 
 use crate::args::InfoArgs;
 
 /// Runs `info`.
 pub fn run(args: InfoArgs) -> Result<()> {
-    let _ = args;
-    anyhow::bail!("`info` is not implemented yet")
+    let fmu = Fmu::open(&args.fmu)?;
+    print!("{}", describe(&fmu));
+    Ok(())
+}
+
+/// The whole report as text.
+fn describe(fmu: &Fmu) -> String {
+    let md = fmu.model_description();
+    let mut out = String::new();
+    // Writing into a String cannot fail; the `let _ =` below discard that impossible error.
+    let _ = writeln!(out, "{}", fmu.path().display());
+    let mut identity = vec![
+        ("Model", md.model_name.clone()),
+        ("FMI version", md.fmi_version.clone()),
+        ("GUID", md.guid.clone()),
+    ];
+    let optional = [
+        ("Description", &md.description),
+        ("Version", &md.version),
+        ("Author", &md.author),
+        ("Generation tool", &md.generation_tool),
+        ("Generated", &md.generation_date_and_time),
+    ];
+    identity.extend(
+        optional
+            .into_iter()
+            .filter_map(|(k, v)| v.as_ref().map(|v| (k, v.clone()))),
+    );
+    identity.push((
+        "Variable naming",
+        match md.variable_naming_convention {
+            VariableNamingConvention::Flat => "flat",
+            VariableNamingConvention::Structured => "structured",
+        }
+        .to_owned(),
+    ));
+    identity.push(("Platforms", platforms(fmu)));
+    out.push_str(&key_values("", &identity));
+
+    out.push('\n');
+    if let Some(cs) = &md.co_simulation {
+        let _ = writeln!(
+            out,
+            "Co-Simulation (modelIdentifier {})",
+            cs.model_identifier
+        );
+        let flags = [
+            (
+                "canHandleVariableCommunicationStepSize",
+                cs.can_handle_variable_communication_step_size,
+            ),
+            ("canInterpolateInputs", cs.can_interpolate_inputs),
+            ("canRunAsynchronuously", cs.can_run_asynchronuously),
+            ("canGetAndSetFMUstate", cs.can_get_and_set_fmu_state),
+            ("canSerializeFMUstate", cs.can_serialize_fmu_state),
+            (
+                "providesDirectionalDerivative",
+                cs.provides_directional_derivative,
+            ),
+            ("needsExecutionTool", cs.needs_execution_tool),
+            (
+                "canBeInstantiatedOnlyOncePerProcess",
+                cs.can_be_instantiated_only_once_per_process,
+            ),
+            (
+                "canNotUseMemoryManagementFunctions",
+                cs.can_not_use_memory_management_functions,
+            ),
+        ];
+        let mut pairs: Vec<(&str, String)> = flags
+            .iter()
+            .map(|&(k, v)| (k, if v { "yes" } else { "no" }.to_owned()))
+            .collect();
+        pairs.push((
+            "maxOutputDerivativeOrder",
+            cs.max_output_derivative_order.to_string(),
+        ));
+        out.push_str(&key_values("  ", &pairs));
+    }
+    match &md.model_exchange {
+        Some(me) => {
+            let _ = writeln!(
+                out,
+                "Model Exchange (modelIdentifier {}): offered, not used by this tool",
+                me.model_identifier
+            );
+        }
+        None => out.push_str("Model Exchange: not offered\n"),
+    }
+
+    out.push('\n');
+    let _ = writeln!(out, "Default experiment: {}", default_experiment(md));
+
+    if !md.log_categories.is_empty() {
+        out.push_str("\nLog categories\n");
+        let pairs: Vec<(&str, String)> = md
+            .log_categories
+            .iter()
+            .map(|c| (c.name.as_str(), c.description.clone().unwrap_or_default()))
+            .collect();
+        out.push_str(&key_values("  ", &pairs));
+    }
+
+    let enumerations: Vec<_> = md
+        .type_definitions
+        .iter()
+        .filter_map(|t| match &t.kind {
+            SimpleTypeKind::Enumeration { items, .. } => Some((t, items)),
+            _ => None,
+        })
+        .collect();
+    if !enumerations.is_empty() {
+        out.push_str("\nEnumerations\n");
+        for (t, items) in enumerations {
+            let list: Vec<String> = items
+                .iter()
+                .map(|i| format!("{} = {}", i.value, i.name))
+                .collect();
+            let _ = writeln!(out, "  {}: {}", t.name, list.join(", "));
+        }
+    }
+
+    let _ = writeln!(out, "\nVariables ({})", md.model_variables.len());
+    let header = [
+        "name",
+        "vr",
+        "type",
+        "causality",
+        "variability",
+        "initial",
+        "start",
+        "unit",
+        "description",
+    ];
+    let rows: Vec<Vec<String>> = md
+        .model_variables
+        .iter()
+        .map(|v| variable_row(md, v))
+        .collect();
+    out.push_str(&table("  ", &header, &rows));
+    out
+}
+
+/// The `binaries/` subdirectories present in the archive.
+fn platforms(fmu: &Fmu) -> String {
+    let mut names: Vec<String> = std::fs::read_dir(fmu.unpacked_dir().join("binaries"))
+        .map(|dir| {
+            dir.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    format!(
+        "{} (running here as {})",
+        names.join(", "),
+        fmi2::import::PLATFORM
+    )
+}
+
+/// `start 0 s, stop 2 s, step 0.001 s, tolerance not given`.
+fn default_experiment(md: &ModelDescription) -> String {
+    let Some(de) = &md.default_experiment else {
+        return "none".to_owned();
+    };
+    let show = |v: Option<f64>, unit: &str| {
+        v.map_or_else(|| "not given".to_owned(), |x| format!("{x}{unit}"))
+    };
+    format!(
+        "start {}, stop {}, step {}, tolerance {}",
+        show(de.start_time, " s"),
+        show(de.stop_time, " s"),
+        show(de.step_size, " s"),
+        show(de.tolerance, ""),
+    )
+}
+
+/// One line of the variable table.
+fn variable_row(md: &ModelDescription, v: &ScalarVariable) -> Vec<String> {
+    let (type_name, start, unit) = match &v.kind {
+        VariableKind::Real {
+            declared_type,
+            unit,
+            start,
+            ..
+        } => {
+            let unit = unit.clone().or_else(|| {
+                let t = md.simple_type(declared_type.as_deref()?)?;
+                match &t.kind {
+                    SimpleTypeKind::Real { unit, .. } => unit.clone(),
+                    _ => None,
+                }
+            });
+            (
+                "Real".to_owned(),
+                start.map(|x| x.to_string()),
+                unit.unwrap_or_default(),
+            )
+        }
+        VariableKind::Integer { start, .. } => (
+            "Integer".to_owned(),
+            start.map(|n| n.to_string()),
+            String::new(),
+        ),
+        VariableKind::Boolean { start } => (
+            "Boolean".to_owned(),
+            start.map(|b| b.to_string()),
+            String::new(),
+        ),
+        VariableKind::String { start } => (
+            "String".to_owned(),
+            start.as_ref().map(|s| format!("{s:?}")),
+            String::new(),
+        ),
+        VariableKind::Enumeration {
+            declared_type,
+            start,
+            ..
+        } => {
+            let item = |n: i32| {
+                md.simple_type(declared_type).and_then(|t| match &t.kind {
+                    SimpleTypeKind::Enumeration { items, .. } => {
+                        items.iter().find(|i| i.value == n).map(|i| i.name.clone())
+                    }
+                    _ => None,
+                })
+            };
+            let start = start.map(|n| match item(n) {
+                Some(name) => format!("{n} ({name})"),
+                None => n.to_string(),
+            });
+            (format!("Enumeration {declared_type}"), start, String::new())
+        }
+    };
+    vec![
+        v.name.clone(),
+        v.value_reference.to_string(),
+        type_name,
+        causality_name(v.causality).to_owned(),
+        variability_name(v.variability).to_owned(),
+        v.initial.map_or("", initial_name).to_owned(),
+        start.unwrap_or_default(),
+        unit,
+        v.description.clone().unwrap_or_default(),
+    ]
+}
+
+/// The model description's spelling.
+fn causality_name(c: Causality) -> &'static str {
+    match c {
+        Causality::Parameter => "parameter",
+        Causality::CalculatedParameter => "calculatedParameter",
+        Causality::Input => "input",
+        Causality::Output => "output",
+        Causality::Local => "local",
+        Causality::Independent => "independent",
+    }
+}
+
+/// The model description's spelling.
+fn variability_name(v: Variability) -> &'static str {
+    match v {
+        Variability::Constant => "constant",
+        Variability::Fixed => "fixed",
+        Variability::Tunable => "tunable",
+        Variability::Discrete => "discrete",
+        Variability::Continuous => "continuous",
+    }
+}
+
+/// The model description's spelling.
+fn initial_name(i: Initial) -> &'static str {
+    match i {
+        Initial::Exact => "exact",
+        Initial::Approx => "approx",
+        Initial::Calculated => "calculated",
+    }
+}
+
+/// `key   value` lines with the values aligned.
+fn key_values(indent: &str, pairs: &[(&str, String)]) -> String {
+    let width = pairs
+        .iter()
+        .map(|(k, _)| k.chars().count())
+        .max()
+        .unwrap_or(0);
+    let mut out = String::new();
+    for (k, v) in pairs {
+        let _ = writeln!(out, "{indent}{k:<width$}  {v}");
+    }
+    out
+}
+
+/// A left-aligned text table; the last column is not padded, so long descriptions do not
+/// push trailing spaces onto every line.
+fn table(indent: &str, header: &[&str], rows: &[Vec<String>]) -> String {
+    let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
+    for row in rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let mut out = String::new();
+    let mut line = |cells: &mut dyn Iterator<Item = &str>| {
+        let mut text = String::from(indent);
+        for (i, (cell, &w)) in cells.zip(&widths).enumerate() {
+            if i + 1 == widths.len() {
+                text.push_str(cell);
+            } else {
+                let _ = write!(text, "{cell:<w$}  ");
+            }
+        }
+        out.push_str(text.trim_end());
+        out.push('\n');
+    };
+    line(&mut header.iter().copied());
+    for row in rows {
+        line(&mut row.iter().map(String::as_str));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_aligns_columns_and_trims_the_last() {
+        let rows = vec![
+            vec!["x".to_owned(), "1".to_owned(), "first".to_owned()],
+            vec!["longer".to_owned(), "22".to_owned(), String::new()],
+        ];
+        let text = table("  ", &["name", "vr", "description"], &rows);
+        assert_eq!(
+            text,
+            "  name    vr  description\n  x       1   first\n  longer  22\n"
+        );
+    }
+
+    #[test]
+    fn key_values_align() {
+        let text = key_values("", &[("a", "1".into()), ("long", "2".into())]);
+        assert_eq!(text, "a     1\nlong  2\n");
+    }
 }

@@ -1,11 +1,708 @@
-//! `simulate` subcommand.
+//! `simulate X.fmu`: one FMI 2.0 co-simulation FMU on its own, like fmpy's `simulate` or
+//! fmi-sim: start values, an optional input table, a fixed communication grid, and a CSV of
+//! the recorded variables.
+//!
+//! Everything the user supplies (start values, input table, recorded names, time grid) is
+//! checked against the model description before the FMU is instantiated, so a typo fails at
+//! once with its file, line and column. The result is written only after the last step
+//! succeeded, and atomically, so a failed run leaves no output file behind.
 
-use anyhow::Result;
+use std::io;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail, ensure};
+use fmi2::Status;
+use fmi2::export::{Causality, Variability};
+use fmi2::import::{Fmu, ImportError, Instance};
+use fmi2::md::{Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use orchestrator::output::{CsvExporter, Exporter, Recording, write_recording};
 
 use crate::args::SimulateArgs;
 
+/// Step size when neither `--step-size` nor the DefaultExperiment gives one.
+const DEFAULT_STEP_SIZE: f64 = 1e-3;
+/// Stop time when neither `--stop-time` nor the DefaultExperiment gives one.
+const DEFAULT_STOP_TIME: f64 = 1.0;
+/// Refuse grids longer than this: the recording is kept in memory, and such a count is
+/// almost always a mistyped step size.
+const MAX_STEPS: usize = 100_000_000;
+/// Relative slack (in step sizes) for deciding that a time lies on the grid: `t0 + n·h`
+/// is rounded, so a stop time or input row meant to be on the grid may sit a few ulps off.
+const GRID_SLACK: f64 = 1e-9;
+
 /// Runs `simulate`.
 pub fn run(args: SimulateArgs) -> Result<()> {
-    let _ = args;
-    anyhow::bail!("`simulate` is not implemented yet")
+    let fmu = Fmu::open(&args.fmu)?;
+    let mut plan = Plan::new(&args, fmu.model_description())?;
+    let recording = simulate(&fmu, &mut plan, args.fmu_logging)
+        .with_context(|| format!("simulation of {} failed", args.fmu.display()))?;
+    match &args.output {
+        Some(path) => write_recording(path, &recording, &CsvExporter)?,
+        None => match CsvExporter.write(&recording, &mut io::stdout().lock()) {
+            // A reader that stops early (`| head`) is not an error of the simulation.
+            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => {}
+            other => other.context("cannot write the result to standard output")?,
+        },
+    }
+    Ok(())
+}
+
+/// The arguments of one `simulate` run, validated against the model description.
+#[derive(Debug)]
+struct Plan {
+    /// `--set` values, applied before initialization.
+    starts: Vec<Assignment>,
+    /// The communication points.
+    grid: Grid,
+    /// `tolerance` of the DefaultExperiment, passed on to fmi2SetupExperiment.
+    tolerance: Option<f64>,
+    /// The `--input` table.
+    inputs: Option<InputTable>,
+    /// What to read after initialization and after each step.
+    recorder: Recorder,
+}
+
+impl Plan {
+    fn new(args: &SimulateArgs, md: &ModelDescription) -> Result<Plan> {
+        let mut starts = Vec::new();
+        for text in &args.set {
+            starts.extend(parse_assignment(md, text).with_context(|| format!("--set {text}"))?);
+        }
+        let experiment = md.default_experiment.clone().unwrap_or_default();
+        let start = args.start_time.or(experiment.start_time).unwrap_or(0.0);
+        let stop = args
+            .stop_time
+            .or(experiment.stop_time)
+            .unwrap_or(start + DEFAULT_STOP_TIME);
+        let step = args
+            .step_size
+            .or(experiment.step_size)
+            .unwrap_or(DEFAULT_STEP_SIZE);
+        let can_vary = md
+            .co_simulation
+            .as_ref()
+            .is_some_and(|cs| cs.can_handle_variable_communication_step_size);
+        let grid = Grid::new(start, stop, step, can_vary)?;
+        let inputs = args
+            .input
+            .as_deref()
+            .map(|path| InputTable::read(path, md))
+            .transpose()?;
+        let recorder = Recorder::new(md, &args.record)?;
+        Ok(Plan {
+            starts,
+            grid,
+            tolerance: experiment.tolerance,
+            inputs,
+            recorder,
+        })
+    }
+}
+
+/// A value converted to its variable's base type.
+#[derive(Debug, Clone, PartialEq)]
+enum Value {
+    Real(f64),
+    /// Integer and Enumeration.
+    Integer(i32),
+    Boolean(bool),
+    String(String),
+}
+
+/// One start value from `--set`.
+#[derive(Debug, Clone, PartialEq)]
+struct Assignment {
+    name: String,
+    vr: u32,
+    value: Value,
+}
+
+/// `NAME=VALUE` → one assignment per variable `NAME` denotes (all elements of an array).
+fn parse_assignment(md: &ModelDescription, text: &str) -> Result<Vec<Assignment>> {
+    let Some((name, value)) = text.split_once('=') else {
+        bail!("expected NAME=VALUE");
+    };
+    let name = name.trim();
+    let vars = resolve(md, name)?;
+    vars.into_iter()
+        .map(|var| {
+            settable(var)?;
+            let value = parse_value(md, var, value).map_err(anyhow::Error::msg)?;
+            Ok(Assignment {
+                name: var.name.clone(),
+                vr: var.value_reference,
+                value,
+            })
+        })
+        .collect()
+}
+
+/// The variables `name` denotes: the one with exactly that name, else every element
+/// `name[...]` of an array, so `force=0` sets `force[1]` to `force[6]`.
+fn resolve<'a>(md: &'a ModelDescription, name: &str) -> Result<Vec<&'a ScalarVariable>> {
+    if let Some(v) = md.variable_by_name(name) {
+        return Ok(vec![v]);
+    }
+    let prefix = format!("{name}[");
+    let elements: Vec<_> = md
+        .model_variables
+        .iter()
+        .filter(|v| v.name.starts_with(&prefix))
+        .collect();
+    if !elements.is_empty() {
+        return Ok(elements);
+    }
+    let lower = name.to_lowercase();
+    let similar: Vec<&str> = md
+        .model_variables
+        .iter()
+        .map(|v| v.name.as_str())
+        .filter(|n| !lower.is_empty() && n.to_lowercase().contains(&lower))
+        .take(5)
+        .collect();
+    let hint = if similar.is_empty() {
+        "`orchestrator info` lists its variables".to_owned()
+    } else {
+        format!("similar names: {}", similar.join(", "))
+    };
+    bail!(
+        "model '{}' has no variable named '{name}' ({hint})",
+        md.model_name
+    )
+}
+
+/// Whether FMI 2.0 lets a master give `var` a value before initialization: inputs, and
+/// non-constant variables whose `initial` is exact or approx.
+fn settable(var: &ScalarVariable) -> Result<()> {
+    let name = &var.name;
+    if var.variability == Variability::Constant {
+        bail!("'{name}' is a constant and cannot be set");
+    }
+    match var.causality {
+        Causality::Input => Ok(()),
+        Causality::Independent => bail!("'{name}' is the independent variable (time)"),
+        _ if matches!(var.initial, Some(Initial::Exact | Initial::Approx)) => Ok(()),
+        c => bail!(
+            "'{name}' is {} and computed by the FMU (initial = calculated), so it has no start value to set",
+            causality_phrase(c)
+        ),
+    }
+}
+
+fn causality_phrase(c: Causality) -> &'static str {
+    match c {
+        Causality::Parameter => "a parameter",
+        Causality::CalculatedParameter => "a calculated parameter",
+        Causality::Input => "an input",
+        Causality::Output => "an output",
+        Causality::Local => "a local variable",
+        Causality::Independent => "the independent variable",
+    }
+}
+
+/// Converts `text` to `var`'s type: a finite number for Real; an integral number for
+/// Integer; `true`/`false` (or 1/0) for Boolean; a number or an item name for Enumeration.
+fn parse_value(md: &ModelDescription, var: &ScalarVariable, text: &str) -> Result<Value, String> {
+    let t = text.trim();
+    let name = &var.name;
+    match &var.kind {
+        VariableKind::Real { .. } => t
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .map(Value::Real)
+            .ok_or_else(|| format!("'{t}' is not a finite number ('{name}' is a Real)")),
+        VariableKind::Integer { .. } => parse_integer(t)
+            .map(Value::Integer)
+            .ok_or_else(|| format!("'{t}' is not an integer ('{name}' is an Integer)")),
+        VariableKind::Boolean { .. } => match t {
+            "true" | "1" => Ok(Value::Boolean(true)),
+            "false" | "0" => Ok(Value::Boolean(false)),
+            _ => Err(format!(
+                "'{t}' is not a Boolean ('{name}' is a Boolean: use true or false)"
+            )),
+        },
+        VariableKind::Enumeration { declared_type, .. } => {
+            let items = md.simple_type(declared_type).and_then(|st| match &st.kind {
+                SimpleTypeKind::Enumeration { items, .. } => Some(items),
+                _ => None,
+            });
+            let found = match (parse_integer(t), items) {
+                (Some(n), Some(items)) => items.iter().any(|i| i.value == n).then_some(n),
+                (Some(n), None) => Some(n),
+                (None, items) => items
+                    .and_then(|items| items.iter().find(|i| i.name == t))
+                    .map(|i| i.value),
+            };
+            found.map(Value::Integer).ok_or_else(|| {
+                let choices = items.map_or_else(String::new, |items| {
+                    items
+                        .iter()
+                        .map(|i| format!("{} ({})", i.name, i.value))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                });
+                format!(
+                    "'{t}' is not an item of enumeration {declared_type} ('{name}' takes one of: {choices})"
+                )
+            })
+        }
+        VariableKind::String { .. } => Ok(Value::String(text.to_owned())),
+    }
+}
+
+/// An i32 written as an integer or as an integral number (`3.0`, as some tools export).
+fn parse_integer(t: &str) -> Option<i32> {
+    t.parse::<i32>().ok().or_else(|| {
+        let x: f64 = t.parse().ok()?;
+        let integral = x.fract() == 0.0 && x >= f64::from(i32::MIN) && x <= f64::from(i32::MAX);
+        integral.then_some(x as i32)
+    })
+}
+
+/// The communication points t_n = t0 + n·h (computed, never accumulated), plus a shorter
+/// last step to the stop time when the span is not a whole number of steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Grid {
+    start: f64,
+    stop: f64,
+    step: f64,
+    /// Number of full steps of `step`.
+    full_steps: usize,
+    /// Whether a shorter step from `t_full_steps` to `stop` follows.
+    partial: bool,
+}
+
+impl Grid {
+    fn new(start: f64, stop: f64, step: f64, can_vary_step: bool) -> Result<Grid> {
+        ensure!(start.is_finite(), "start time {start} must be finite");
+        ensure!(
+            stop.is_finite() && stop > start,
+            "stop time {stop} s must be after the start time {start} s"
+        );
+        ensure!(
+            step.is_finite() && step > 0.0,
+            "step size {step} s must be positive"
+        );
+        let ratio = (stop - start) / step;
+        ensure!(
+            ratio <= MAX_STEPS as f64,
+            "{ratio:.3e} steps of {step} s from {start} s to {stop} s are more than {MAX_STEPS}; use a larger --step-size"
+        );
+        let rounded = ratio.round();
+        let (full_steps, partial) = if (ratio - rounded).abs() <= GRID_SLACK * rounded.max(1.0) {
+            (rounded as usize, false)
+        } else {
+            (ratio.floor() as usize, true)
+        };
+        ensure!(
+            !partial || can_vary_step,
+            "stop − start = {} s is not a whole number of steps of {step} s, and the FMU cannot \
+             vary its communication step size; choose --stop-time or --step-size to fit",
+            stop - start
+        );
+        Ok(Grid {
+            start,
+            stop,
+            step,
+            full_steps,
+            partial,
+        })
+    }
+
+    /// Number of doStep calls.
+    fn steps(&self) -> usize {
+        self.full_steps + usize::from(self.partial)
+    }
+
+    /// t_n for n in 0..=steps().
+    fn time(&self, n: usize) -> f64 {
+        if n > self.full_steps {
+            self.stop
+        } else {
+            self.start + n as f64 * self.step
+        }
+    }
+
+    /// The step size of the step from t_n. Full steps all pass the same `h`, so FMUs that
+    /// need a fixed step size see exactly one value.
+    fn step_from(&self, n: usize) -> f64 {
+        if n < self.full_steps {
+            self.step
+        } else {
+            self.stop - self.time(n)
+        }
+    }
+}
+
+/// One column of the input table: the input variable it drives.
+#[derive(Debug, Clone)]
+struct InputColumn {
+    name: String,
+    vr: u32,
+}
+
+/// The `--input` CSV: rows of (time, one value per column), times non-decreasing.
+#[derive(Debug)]
+struct InputTable {
+    columns: Vec<InputColumn>,
+    times: Vec<f64>,
+    rows: Vec<Vec<Value>>,
+    /// Row last applied, so unchanged inputs are not set again.
+    applied: Option<usize>,
+}
+
+impl InputTable {
+    /// Reads and checks the whole table; errors name the file, the line and the column.
+    fn read(path: &Path, md: &ModelDescription) -> Result<InputTable> {
+        let file = std::fs::File::open(path)
+            .with_context(|| format!("cannot read the input file {}", path.display()))?;
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(io::BufReader::new(file));
+        let at = |line: u64, column: usize| format!("{}:{line}: column {column}", path.display());
+        let header = reader
+            .headers()
+            .with_context(|| format!("{}:1: cannot read the header", path.display()))?
+            .clone();
+        match header.get(0) {
+            Some("time") => {}
+            Some(other) => bail!("{}: must be `time`, found '{other}'", at(1, 1)),
+            None => bail!(
+                "{}:1: empty file, expected a header `time,<inputs>`",
+                path.display()
+            ),
+        }
+        let mut columns = Vec::new();
+        let mut vars = Vec::new();
+        for (i, name) in header.iter().enumerate().skip(1) {
+            let Some(var) = md.variable_by_name(name) else {
+                bail!(
+                    "{} '{name}': model '{}' has no variable of that name",
+                    at(1, i + 1),
+                    md.model_name
+                );
+            };
+            if var.causality != Causality::Input {
+                bail!(
+                    "{} '{name}' is {}, not an input; only inputs can be driven from a file",
+                    at(1, i + 1),
+                    causality_phrase(var.causality)
+                );
+            }
+            if columns.iter().any(|c: &InputColumn| c.name == name) {
+                bail!("{} '{name}' appears twice", at(1, i + 1));
+            }
+            columns.push(InputColumn {
+                name: name.to_owned(),
+                vr: var.value_reference,
+            });
+            vars.push(var);
+        }
+        let mut times = Vec::new();
+        let mut rows = Vec::new();
+        let mut record = csv::StringRecord::new();
+        loop {
+            match reader.read_record(&mut record) {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => {
+                    let line = e.position().map_or(0, csv::Position::line);
+                    if let csv::ErrorKind::UnequalLengths {
+                        expected_len, len, ..
+                    } = e.kind()
+                    {
+                        bail!(
+                            "{}:{line}: {len} field(s), expected {expected_len} as in the header",
+                            path.display()
+                        );
+                    }
+                    bail!("{}:{line}: {e}", path.display());
+                }
+            }
+            let line = record.position().map_or(0, csv::Position::line);
+            let cell = record.get(0).unwrap_or_default();
+            let t = cell
+                .parse::<f64>()
+                .ok()
+                .filter(|t| t.is_finite())
+                .with_context(|| {
+                    format!("{} (time): '{cell}' is not a finite number", at(line, 1))
+                })?;
+            if let Some(&last) = times.last() {
+                ensure!(
+                    t >= last,
+                    "{} (time): {t} is before the previous row's {last}; times must not decrease",
+                    at(line, 1)
+                );
+            }
+            let values = vars
+                .iter()
+                .enumerate()
+                .map(|(i, var)| {
+                    let cell = record.get(i + 1).unwrap_or_default();
+                    match parse_value(md, var, cell) {
+                        Ok(Value::String(_)) => bail!(
+                            "{} ('{}'): String inputs cannot be driven from a file",
+                            at(line, i + 2),
+                            var.name
+                        ),
+                        Ok(v) => Ok(v),
+                        Err(message) => bail!("{} ('{}'): {message}", at(line, i + 2), var.name),
+                    }
+                })
+                .collect::<Result<Vec<_>>>()?;
+            times.push(t);
+            rows.push(values);
+        }
+        ensure!(
+            !times.is_empty(),
+            "{}: no data rows after the header",
+            path.display()
+        );
+        Ok(InputTable {
+            columns,
+            times,
+            rows,
+            applied: None,
+        })
+    }
+
+    /// The last row with time ≤ t (a row a few ulps after a grid point counts as on it).
+    fn row_at(&self, t: f64, slack: f64) -> Option<usize> {
+        self.times
+            .partition_point(|&row_time| row_time <= t + slack)
+            .checked_sub(1)
+    }
+
+    /// Sets the inputs held at `t` (zero-order hold), unless they are already set. Before
+    /// the first row the FMU keeps its start values.
+    fn apply(&mut self, inst: &mut Instance, t: f64, slack: f64) -> Result<Status, ImportError> {
+        let Some(row) = self.row_at(t, slack) else {
+            return Ok(Status::Ok);
+        };
+        if self.applied == Some(row) {
+            return Ok(Status::Ok);
+        }
+        let mut worst = Status::Ok;
+        for (column, value) in self.columns.iter().zip(&self.rows[row]) {
+            worst = worst.max(set_value(inst, column.vr, value)?);
+        }
+        self.applied = Some(row);
+        Ok(worst)
+    }
+}
+
+/// Sets one variable through the accessor family of its type.
+fn set_value(inst: &mut Instance, vr: u32, value: &Value) -> Result<Status, ImportError> {
+    match value {
+        Value::Real(x) => inst.set_real(&[vr], &[*x]),
+        Value::Integer(n) => inst.set_integer(&[vr], &[*n]),
+        Value::Boolean(b) => inst.set_boolean(&[vr], &[*b]),
+        Value::String(s) => inst.set_string(&[vr], &[s.as_str()]),
+    }
+}
+
+/// Reads the recorded variables, grouped by base type so each sample is three FMI calls.
+#[derive(Debug)]
+struct Recorder {
+    names: Vec<String>,
+    reals: Group<f64>,
+    integers: Group<i32>,
+    booleans: Group<bool>,
+}
+
+/// Value references of one base type, the recording columns they fill, and a buffer.
+#[derive(Debug, Default)]
+struct Group<T> {
+    vrs: Vec<u32>,
+    columns: Vec<usize>,
+    buffer: Vec<T>,
+}
+
+impl<T: Default + Clone> Group<T> {
+    fn push(&mut self, vr: u32, column: usize) {
+        self.vrs.push(vr);
+        self.columns.push(column);
+        self.buffer.push(T::default());
+    }
+}
+
+impl Recorder {
+    /// `--record` names (arrays expanded), or every output when none are given.
+    fn new(md: &ModelDescription, names: &[String]) -> Result<Recorder> {
+        let vars: Vec<&ScalarVariable> = if names.is_empty() {
+            md.model_variables
+                .iter()
+                .filter(|v| {
+                    v.causality == Causality::Output
+                        && !matches!(v.kind, VariableKind::String { .. })
+                })
+                .collect()
+        } else {
+            let mut vars = Vec::new();
+            for name in names {
+                vars.extend(resolve(md, name).with_context(|| format!("--record {name}"))?);
+            }
+            vars
+        };
+        let mut recorder = Recorder {
+            names: Vec::with_capacity(vars.len()),
+            reals: Group::default(),
+            integers: Group::default(),
+            booleans: Group::default(),
+        };
+        for (column, var) in vars.into_iter().enumerate() {
+            let vr = var.value_reference;
+            match var.kind {
+                VariableKind::Real { .. } => recorder.reals.push(vr, column),
+                VariableKind::Integer { .. } | VariableKind::Enumeration { .. } => {
+                    recorder.integers.push(vr, column);
+                }
+                VariableKind::Boolean { .. } => recorder.booleans.push(vr, column),
+                VariableKind::String { .. } => bail!(
+                    "--record {}: String variables cannot be recorded as numbers",
+                    var.name
+                ),
+            }
+            recorder.names.push(var.name.clone());
+        }
+        Ok(recorder)
+    }
+
+    /// Reads every recorded variable into `row` (Booleans as 0/1).
+    fn sample(&mut self, inst: &mut Instance, row: &mut [f64]) -> Result<(), ImportError> {
+        if !self.reals.vrs.is_empty() {
+            inst.get_real(&self.reals.vrs, &mut self.reals.buffer)?;
+            for (&c, &x) in self.reals.columns.iter().zip(&self.reals.buffer) {
+                row[c] = x;
+            }
+        }
+        if !self.integers.vrs.is_empty() {
+            inst.get_integer(&self.integers.vrs, &mut self.integers.buffer)?;
+            for (&c, &n) in self.integers.columns.iter().zip(&self.integers.buffer) {
+                row[c] = f64::from(n);
+            }
+        }
+        if !self.booleans.vrs.is_empty() {
+            inst.get_boolean(&self.booleans.vrs, &mut self.booleans.buffer)?;
+            for (&c, &b) in self.booleans.columns.iter().zip(&self.booleans.buffer) {
+                row[c] = if b { 1.0 } else { 0.0 };
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Prints what the FMU logged: everything with `--fmu-logging`, otherwise only when a call
+/// returned a warning, whose explanation would else be lost.
+fn report_log(inst: &Instance, status: Status, verbose: bool) {
+    if verbose || status >= Status::Warning {
+        for record in inst.take_log() {
+            eprintln!("{}: {record}", inst.name());
+        }
+    }
+}
+
+/// Instantiates, initializes and steps the FMU over the grid, returning the recording.
+fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
+    let md = fmu.model_description();
+    let mut inst = fmu.instantiate(&md.model_name, verbose)?;
+    if verbose {
+        let status = inst.set_debug_logging(true, &[])?;
+        report_log(&inst, status, verbose);
+    }
+    for a in &plan.starts {
+        let status = set_value(&mut inst, a.vr, &a.value)
+            .with_context(|| format!("setting the start value of '{}'", a.name))?;
+        report_log(&inst, status, verbose);
+    }
+
+    let grid = plan.grid;
+    let slack = GRID_SLACK * grid.step;
+    let status = inst.setup_experiment(plan.tolerance, grid.start, Some(grid.stop))?;
+    report_log(&inst, status, verbose);
+    let status = inst.enter_initialization_mode()?;
+    report_log(&inst, status, verbose);
+    if let Some(inputs) = &mut plan.inputs {
+        let status = inputs
+            .apply(&mut inst, grid.start, slack)
+            .with_context(|| format!("setting the inputs at t = {} s", grid.start))?;
+        report_log(&inst, status, verbose);
+    }
+    let status = inst.exit_initialization_mode()?;
+    report_log(&inst, status, verbose);
+
+    let mut recording = Recording::with_capacity(plan.recorder.names.clone(), grid.steps() + 1);
+    let mut row = vec![0.0; recording.names.len()];
+    plan.recorder
+        .sample(&mut inst, &mut row)
+        .with_context(|| format!("reading the outputs at t = {} s", grid.start))?;
+    recording.push_row(grid.start, &row);
+
+    for n in 0..grid.steps() {
+        let t = grid.time(n);
+        let h = grid.step_from(n);
+        if let Some(inputs) = &mut plan.inputs {
+            let status = inputs
+                .apply(&mut inst, t, slack)
+                .with_context(|| format!("setting the inputs at t = {t} s"))?;
+            report_log(&inst, status, verbose);
+        }
+        let status = inst
+            .do_step(t, h, true)
+            .with_context(|| format!("step from t = {t} s by {h} s"))?;
+        report_log(&inst, status, verbose);
+        let t_next = grid.time(n + 1);
+        plan.recorder
+            .sample(&mut inst, &mut row)
+            .with_context(|| format!("reading the outputs at t = {t_next} s"))?;
+        recording.push_row(t_next, &row);
+    }
+    let status = inst.terminate()?;
+    report_log(&inst, status, verbose);
+    Ok(recording)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_is_computed_not_accumulated() {
+        let g = Grid::new(0.0, 1.0, 0.1, false).unwrap();
+        assert_eq!(g.steps(), 10);
+        assert_eq!(g.time(3), 3.0 * 0.1);
+        assert_eq!(g.step_from(9), 0.1);
+        // Accumulating 0.1 ten times gives 0.9999999999999999; the grid gives 1.0.
+        assert_eq!(g.time(10), 1.0);
+    }
+
+    #[test]
+    fn grid_with_remainder_needs_variable_steps() {
+        let g = Grid::new(0.0, 1.05, 0.1, true).unwrap();
+        assert_eq!(g.steps(), 11);
+        assert_eq!(g.time(11), 1.05);
+        assert!((g.step_from(10) - 0.05).abs() < 1e-12);
+        let err = Grid::new(0.0, 1.05, 0.1, false).unwrap_err().to_string();
+        assert!(err.contains("not a whole number of steps"), "{err}");
+    }
+
+    #[test]
+    fn grid_rejects_bad_times() {
+        for (start, stop, step) in [(0.0, 0.0, 0.1), (1.0, 0.5, 0.1), (0.0, 1.0, 0.0)] {
+            assert!(Grid::new(start, stop, step, true).is_err());
+        }
+        let err = Grid::new(0.0, 1e3, 1e-9, true).unwrap_err().to_string();
+        assert!(err.contains("--step-size"), "{err}");
+    }
+
+    #[test]
+    fn integers_accept_integral_numbers_only() {
+        assert_eq!(parse_integer("42"), Some(42));
+        assert_eq!(parse_integer("-3.0"), Some(-3));
+        assert_eq!(parse_integer("2.5"), None);
+        assert_eq!(parse_integer("1e10"), None);
+        assert_eq!(parse_integer("x"), None);
+    }
 }
