@@ -15,7 +15,10 @@ use crate::scenario::{Port, Scenario, Value};
 #[derive(Debug, thiserror::Error)]
 pub enum MasterError {
     #[error("cannot instantiate FMU {fmu:?}: {source}")]
-    Instantiate { fmu: String, source: Box<ImportError> },
+    Instantiate {
+        fmu: String,
+        source: Box<ImportError>,
+    },
     #[error("trial {trial}, t = {time} s: {what} of FMU {fmu:?} failed: {source}")]
     Call {
         trial: usize,
