@@ -177,8 +177,7 @@ class HlcsMaster:
         """Runs one trial from the initial state with the current memory, then makes the
         memory it wrote the memory of the next trial."""
         n_steps, h = self.steps, self.h
-        rows = {k: np.empty((n_steps, LEGS)) for k in ("length", "velocity", "force")}
-        rows["error"] = np.empty((n_steps, LEGS))
+        rows = {k: np.empty((n_steps, LEGS)) for k in ("length", "velocity", "force", "error")}
         write = np.empty((n_steps, LEGS))  # u_{k+1}(t_n), the write buffer
 
         # Both FMUs start every trial from the same initial state.
