@@ -1,0 +1,126 @@
+//! Helpers shared by the CLI tests: the `orchestrator` binary, the built CKCM FMUs, the
+//! foreign test FMU packaged on demand, and rewritten archives for bad-input cases.
+
+// Each test binary includes this module and uses a different subset of it.
+#![allow(dead_code)]
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use orchestrator::output::{Recording, read_recording_csv};
+
+/// The workspace root (the orchestrator crate's parent).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("orchestrator lives inside the workspace")
+        .to_path_buf()
+}
+
+/// A command running the `orchestrator` binary built for these tests.
+pub fn orchestrator() -> assert_cmd::Command {
+    assert_cmd::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+}
+
+/// `$CKCM_FMU_DIR/<name>.fmu`, by default `<workspace>/target/fmu/<name>.fmu`, which
+/// `cargo xtask fmu` builds.
+pub fn built_fmu(name: &str) -> PathBuf {
+    let dir = std::env::var_os("CKCM_FMU_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("target/fmu"));
+    let path = dir.join(format!("{name}.fmu"));
+    assert!(
+        path.is_file(),
+        "{} is missing: run `cargo xtask fmu` first (or point CKCM_FMU_DIR at the FMUs)",
+        path.display()
+    );
+    path
+}
+
+/// The model description of the foreign test FMU.
+pub fn foreign_xml() -> String {
+    let path = workspace_root().join("tests/fixtures/foreign-fmu/modelDescription.xml");
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The foreign FMU's shared library of this test profile, built with cargo if missing
+/// (`cargo test -p orchestrator` does not build other workspace members).
+pub fn foreign_cdylib() -> &'static Path {
+    static LIB: OnceLock<PathBuf> = OnceLock::new();
+    LIB.get_or_init(|| {
+        // The test executable is target/<profile>/deps/<name>; cdylibs land in target/<profile>.
+        let exe = std::env::current_exe().expect("path of the test executable");
+        let profile_dir = exe
+            .parent()
+            .and_then(Path::parent)
+            .expect("test executable inside target/<profile>/deps");
+        let lib = profile_dir.join(format!(
+            "{}foreign_fmu.{}",
+            std::env::consts::DLL_PREFIX,
+            std::env::consts::DLL_EXTENSION
+        ));
+        if !lib.is_file() {
+            let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+            let mut cmd = Command::new(cargo);
+            cmd.current_dir(workspace_root())
+                .args(["build", "--quiet", "-p", "foreign-fmu"]);
+            if profile_dir.file_name().is_some_and(|n| n == "release") {
+                cmd.arg("--release");
+            }
+            let status = cmd.status().expect("cannot run cargo");
+            assert!(status.success(), "cargo build -p foreign-fmu failed");
+        }
+        assert!(lib.is_file(), "{} was not built", lib.display());
+        lib
+    })
+}
+
+/// Packages the foreign FMU with the given model description into `dir/<file>`.
+pub fn foreign_fmu_with(dir: &Path, file: &str, xml: &str) -> PathBuf {
+    let path = dir.join(file);
+    fmi2::import::write_fmu(&path, xml, Some(foreign_cdylib()), &[])
+        .unwrap_or_else(|e| panic!("cannot write {}: {e}", path.display()));
+    path
+}
+
+/// The foreign FMU as built, packaged into `dir/DampedOscillator.fmu`.
+pub fn foreign_fmu(dir: &Path) -> PathBuf {
+    foreign_fmu_with(dir, "DampedOscillator.fmu", &foreign_xml())
+}
+
+/// Copies the archive `src` to `dst`, passing every entry through `edit(name, bytes)`;
+/// `None` drops the entry.
+pub fn repackage(src: &Path, dst: &Path, edit: impl Fn(&str, Vec<u8>) -> Option<Vec<u8>>) {
+    let mut archive = zip::ZipArchive::new(std::fs::File::open(src).unwrap()).unwrap();
+    let mut out = zip::ZipWriter::new(std::fs::File::create(dst).unwrap());
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .unix_permissions(0o755);
+    for i in 0..archive.len() {
+        let mut entry = archive.by_index(i).unwrap();
+        if entry.is_dir() {
+            continue;
+        }
+        let name = entry.name().unwrap().into_owned();
+        let mut bytes = Vec::new();
+        entry.read_to_end(&mut bytes).unwrap();
+        if let Some(bytes) = edit(&name, bytes) {
+            out.start_file(name, options).unwrap();
+            out.write_all(&bytes).unwrap();
+        }
+    }
+    out.finish().unwrap();
+}
+
+/// Reads a CSV written by `simulate`.
+pub fn read_csv(path: &Path) -> Recording {
+    read_recording_csv(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The column `name` of `rec`, which must exist.
+pub fn column<'a>(rec: &'a Recording, name: &str) -> &'a [f64] {
+    rec.column(name)
+        .unwrap_or_else(|| panic!("no column {name} in {:?}", rec.names))
+}
