@@ -32,7 +32,7 @@ const GRID_SLACK: f64 = 1e-9;
 
 /// Runs `simulate`.
 pub fn run(args: SimulateArgs) -> Result<()> {
-    let fmu = Fmu::open(&args.fmu)?;
+    let fmu = open_fmu(&args.fmu)?;
     let mut plan = Plan::new(&args, fmu.model_description())?;
     let recording = simulate(&fmu, &mut plan, args.fmu_logging)
         .with_context(|| format!("simulation of {} failed", args.fmu.display()))?;
@@ -45,6 +45,12 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         },
     }
     Ok(())
+}
+
+/// Opens an FMU. An [`ImportError`] is reported by its message alone: that message already
+/// includes its cause, which `{:#}` in `main` would otherwise print a second time.
+pub(crate) fn open_fmu(path: &Path) -> Result<Fmu> {
+    Fmu::open(path).map_err(|e| anyhow::Error::msg(e.to_string()))
 }
 
 /// The arguments of one `simulate` run, validated against the model description.
@@ -607,7 +613,9 @@ fn report_log(inst: &Instance, status: Status, verbose: bool) {
 /// Instantiates, initializes and steps the FMU over the grid, returning the recording.
 fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
     let md = fmu.model_description();
-    let mut inst = fmu.instantiate(&md.model_name, verbose)?;
+    let mut inst = fmu
+        .instantiate(&md.model_name, verbose)
+        .map_err(|e| anyhow::Error::msg(e.to_string()))?;
     if verbose {
         let status = inst.set_debug_logging(true, &[])?;
         report_log(&inst, status, verbose);

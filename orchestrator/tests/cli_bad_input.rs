@@ -1,0 +1,350 @@
+//! Bad input through the CLI: each problem gets its own message (asserted on its text), a
+//! non-zero exit, and no partial results (no output file or directory afterwards). FMU-level
+//! problems go through `simulate`, `info` and `run`.
+
+mod common;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use common::{built_fmu, foreign_fmu, foreign_xml, orchestrator, repackage};
+
+/// The outcome of one failing command.
+struct Failure {
+    stderr: String,
+}
+
+/// Runs `orchestrator args...`, which must fail without writing `must_not_exist`.
+fn fails(args: &[&std::ffi::OsStr], must_not_exist: &Path) -> Failure {
+    let output = orchestrator().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(
+        !output.status.success(),
+        "{args:?} should fail; stderr: {stderr}"
+    );
+    assert!(stderr.starts_with("error: "), "{args:?}: {stderr}");
+    assert!(
+        !must_not_exist.exists(),
+        "{args:?} left {} behind",
+        must_not_exist.display()
+    );
+    Failure { stderr }
+}
+
+impl Failure {
+    fn says(&self, expected: &str) -> &Self {
+        assert!(
+            self.stderr.contains(expected),
+            "expected {expected:?} in: {}",
+            self.stderr
+        );
+        self
+    }
+
+    /// Like [`Failure::says`], and the text does not repeat (a cause printed twice).
+    fn says_once(&self, expected: &str) -> &Self {
+        assert_eq!(
+            self.stderr.matches(expected).count(),
+            1,
+            "expected {expected:?} once in: {}",
+            self.stderr
+        );
+        self
+    }
+}
+
+/// A scenario running `fmu` alone for 10 ms, written as `dir/<stem>.toml`.
+fn scenario_for(dir: &Path, stem: &str, fmu: &Path) -> PathBuf {
+    let path = dir.join(format!("{stem}.toml"));
+    let text = format!(
+        "step_size = 0.001\nstop_time = 0.01\n\n[[fmu]]\nname = \"unit\"\npath = {:?}\n",
+        fmu.to_str().unwrap()
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Checks one broken FMU through `simulate`, `info` and `run`. `open_error` is what opening
+/// it must report; `run` adds the scenario file and the line of the FMU's `path`.
+fn check_fmu_problem(dir: &Path, fmu: &Path, open_error: &str) {
+    let csv = dir.join("result.csv");
+    fails(
+        &[
+            "simulate".as_ref(),
+            fmu.as_os_str(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says_once(open_error);
+    fails(&["info".as_ref(), fmu.as_os_str()], &csv).says_once(open_error);
+    let scenario = scenario_for(dir, "single", fmu);
+    let out = dir.join("run-out");
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says(&format!("{}:6: FMU \"unit\"", scenario.display()))
+    .says_once(open_error);
+}
+
+#[test]
+fn missing_fmu_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = dir.path().join("nowhere.fmu");
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        &format!("{}: no such file", fmu.display()),
+    );
+}
+
+#[test]
+fn a_file_that_is_not_a_zip() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = dir.path().join("text.fmu");
+    std::fs::write(&fmu, "this is not an archive\n").unwrap();
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        &format!("{} is not a zip archive", fmu.display()),
+    );
+}
+
+#[test]
+fn a_zip_without_model_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = dir.path().join("empty.fmu");
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(&fmu).unwrap());
+    zip.start_file(
+        "documentation/readme.txt",
+        zip::write::SimpleFileOptions::default(),
+    )
+    .unwrap();
+    zip.write_all(b"no model description here").unwrap();
+    zip.finish().unwrap();
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        "contains no modelDescription.xml at the archive root",
+    );
+}
+
+#[test]
+fn malformed_model_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = foreign_xml().replace("</ModelVariables>", "</ModelVariablez>");
+    let line = 1 + xml[..xml.find("</ModelVariablez>").unwrap()]
+        .matches('\n')
+        .count();
+    let fmu = dir.path().join("malformed.fmu");
+    // No binary: the description is read first, so its error must win.
+    fmi2::import::write_fmu(&fmu, &xml, None, &[]).unwrap();
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        &format!("modelDescription.xml:{line}: malformed XML"),
+    );
+}
+
+#[test]
+fn fmi_1_model_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="1.0" modelName="Legacy" modelIdentifier="Legacy"
+  guid="{11111111-2222-3333-4444-555555555555}" numberOfContinuousStates="0"
+  numberOfEventIndicators="0">
+  <ModelVariables/>
+</fmiModelDescription>
+"#;
+    let fmu = dir.path().join("legacy.fmu");
+    fmi2::import::write_fmu(&fmu, xml, None, &[]).unwrap();
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        "FMI 1.0 model descriptions are not supported (fmiVersion=\"1.0\")",
+    );
+}
+
+#[test]
+fn model_exchange_only_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = foreign_xml();
+    let start = xml.find("<CoSimulation").unwrap();
+    let end = start + xml[start..].find("/>").unwrap() + 2;
+    let me_only = format!(
+        "{}<ModelExchange modelIdentifier=\"ForeignOscillator\"/>{}",
+        &xml[..start],
+        &xml[end..]
+    );
+    // `write_fmu` needs a co-simulation description to place the binary, so package the
+    // working FMU first and swap the description afterwards.
+    let working = foreign_fmu(dir.path());
+    let fmu = dir.path().join("me.fmu");
+    repackage(&working, &fmu, |name, bytes| {
+        Some(if name == "modelDescription.xml" {
+            me_only.clone().into_bytes()
+        } else {
+            bytes
+        })
+    });
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        "no <CoSimulation> element: this FMU is Model Exchange only",
+    );
+}
+
+#[test]
+fn missing_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = dir.path().join("nobinary.fmu");
+    fmi2::import::write_fmu(&fmu, &foreign_xml(), None, &[]).unwrap();
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        &format!(
+            "no binary for this platform: expected binaries/{}/ForeignOscillator.{} inside the archive",
+            fmi2::import::PLATFORM,
+            fmi2::import::SHARED_LIBRARY_EXTENSION
+        ),
+    );
+}
+
+#[test]
+fn guid_mismatch_fails_instantiation_with_the_fmus_own_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = "{8f5b7a3e-2c41-4d0a-9b6e-5a1c0e7d9b21}";
+    let forged = "{00000000-1111-2222-3333-444444444444}";
+    let fmu = dir.path().join("forged.fmu");
+    repackage(&built_fmu("CkcmPlant"), &fmu, |name, bytes| {
+        if name != "modelDescription.xml" {
+            return Some(bytes);
+        }
+        let xml = String::from_utf8(bytes).unwrap();
+        assert!(xml.contains(original), "CkcmPlant.xml changed its GUID");
+        Some(xml.replace(original, forged).into_bytes())
+    });
+    // The FMU's own log line, passed on verbatim.
+    let fmu_says = format!("GUID mismatch: expected '{original}', received '{forged}'");
+
+    let csv = dir.path().join("result.csv");
+    fails(
+        &[
+            "simulate".as_ref(),
+            fmu.as_os_str(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says_once("fmi2Instantiate failed for instance 'CkcmPlant'")
+    .says_once(&fmu_says);
+
+    let scenario = scenario_for(dir.path(), "forged", &fmu);
+    let out = dir.path().join("run-out");
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("fmi2Instantiate failed")
+    .says(&fmu_says);
+
+    // `info` only reads the archive, so it still describes it, showing the forged GUID.
+    let output = orchestrator().arg("info").arg(&fmu).output().unwrap();
+    assert!(output.status.success());
+    assert!(String::from_utf8_lossy(&output.stdout).contains(forged));
+}
+
+#[test]
+fn scenario_naming_an_unknown_variable() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(dir.path());
+    let scenario = dir.path().join("bad.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "step_size = 0.0078125\nstop_time = 0.5\n\n[[fmu]]\nname = \"osc\"\npath = {:?}\n\n\
+             [record]\nvariables = [\"osc.x\", \"osc.position\"]\n",
+            fmu.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says(&format!("{}:9:", scenario.display()))
+    .says("DampedOscillator has no variable \"position\"");
+}
+
+#[test]
+fn scenario_with_a_toml_syntax_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("broken.toml");
+    std::fs::write(
+        &scenario,
+        "step_size = 0.001\nstop_time = 1.0\n\n[[fmu]\nname = \"plant\"\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says(&format!("{}:4:", scenario.display()));
+}
+
+#[test]
+fn simulate_setting_an_unknown_variable() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("result.csv");
+    let plant = built_fmu("CkcmPlant");
+    fails(
+        &[
+            "simulate".as_ref(),
+            plant.as_os_str(),
+            "--set".as_ref(),
+            "nosuchvar=1".as_ref(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says("--set nosuchvar=1: model 'CkcmPlant' has no variable named 'nosuchvar'");
+    // A near miss gets suggestions.
+    fails(
+        &[
+            "simulate".as_ref(),
+            plant.as_os_str(),
+            "--set".as_ref(),
+            "radius=1".as_ref(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says("similar names: base_radius, platform_radius");
+}
