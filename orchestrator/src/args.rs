@@ -53,7 +53,8 @@ pub struct SimulateArgs {
     /// The FMU (.fmu).
     pub fmu: PathBuf,
     /// Input CSV: a `time` column, then columns named after input variables; values are held
-    /// from each row's time until the next (zero-order hold).
+    /// from each row's time until the next (zero-order hold); before the first row the
+    /// inputs keep their start values.
     #[arg(short, long)]
     pub input: Option<PathBuf>,
     /// Output CSV (default: standard output).
@@ -68,10 +69,13 @@ pub struct SimulateArgs {
     /// Communication step size in s (default: the model's DefaultExperiment, else 1e-3).
     #[arg(long)]
     pub step_size: Option<f64>,
-    /// Start values, NAME=VALUE (repeatable); Booleans as true/false.
+    /// Start values, NAME=VALUE (repeatable): numbers for Real and Integer, true/false for
+    /// Boolean, a number or an item name for Enumeration; an array name (`force`) sets
+    /// every element.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Variables to record (default: all outputs).
+    /// Variables to record (repeatable; default: all outputs); an array name (`pose`)
+    /// records every element.
     #[arg(long = "record", value_name = "NAME")]
     pub record: Vec<String>,
     /// Ask the FMU for debug logging (messages go to stderr).

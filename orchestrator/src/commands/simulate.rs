@@ -706,6 +706,24 @@ mod tests {
     }
 
     #[test]
+    fn input_rows_hold_from_their_time_and_the_last_equal_time_wins() {
+        let table = InputTable {
+            columns: Vec::new(),
+            times: vec![0.5, 1.0, 1.0, 2.0],
+            rows: vec![Vec::new(); 4],
+            applied: None,
+        };
+        let slack = 1e-12;
+        assert_eq!(table.row_at(0.4, slack), None);
+        assert_eq!(table.row_at(0.5, slack), Some(0));
+        assert_eq!(table.row_at(0.999, slack), Some(0));
+        assert_eq!(table.row_at(1.0, slack), Some(2));
+        // A grid time rounded a few ulps below a row's time still reaches that row.
+        assert_eq!(table.row_at(1.0 - 1e-15, slack), Some(2));
+        assert_eq!(table.row_at(5.0, slack), Some(3));
+    }
+
+    #[test]
     fn integers_accept_integral_numbers_only() {
         assert_eq!(parse_integer("42"), Some(42));
         assert_eq!(parse_integer("-3.0"), Some(-3));
