@@ -52,45 +52,54 @@ fn split(v: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
 }
 
 impl Mechanism {
-    /// Effective 3×3 mass of one leg seen at its platform joint:
-    /// M_L = m_r n nᵀ + [(m_c d_c² + I_c + m_r (l − d_r)² + I_r) / l²](I − n nᵀ).
+    /// Axial and transverse effective masses (a, c) of one leg at its platform joint, so that
+    /// M_L = a n nᵀ + c (I − n nᵀ) with a = m_r and
+    /// c = (m_c d_c² + I_c + m_r (l − d_r)² + I_r) / l².
     #[inline]
-    fn leg_mass(&self, n: &Vector3<f64>, l: f64) -> Matrix3<f64> {
+    fn leg_masses(&self, l: f64) -> (f64, f64) {
         let p = &self.params.legs;
-        let nn = n * n.transpose();
-        let transverse = (p.cylinder_mass * p.cylinder_com.powi(2)
+        let transverse = (p.cylinder_mass * p.cylinder_com * p.cylinder_com
             + p.cylinder_inertia
-            + p.rod_mass * (l - p.rod_com).powi(2)
+            + p.rod_mass * (l - p.rod_com) * (l - p.rod_com)
             + p.rod_inertia)
             / (l * l);
-        nn * p.rod_mass + (Matrix3::identity() - nn) * transverse
+        (p.rod_mass, transverse)
     }
 
     /// Closed-form task-space mass matrix M(x) = M_platform + Σ G_iᵀ M_L,i G_i with
     /// G_i = [I, −[r_i]×].
-    pub fn mass_matrix(
-        &self,
-        legs: &LegGeometry,
-        q_world: &nalgebra::UnitQuaternion<f64>,
-    ) -> Matrix6<f64> {
-        let rot = q_world.to_rotation_matrix();
+    ///
+    /// Since M_L = c I + (a − c) n nᵀ and G_iᵀ n = j_i (the Jacobian row [n; r × n]),
+    /// each leg adds c G_iᵀG_i + (a − c) j_i j_iᵀ, with
+    /// G_iᵀG_i = [[I, −[r]×], [[r]×, |r|² I − r rᵀ]]: rank-one updates instead of 3×3 products.
+    pub fn mass_matrix(&self, legs: &LegGeometry) -> Matrix6<f64> {
+        let rot = &legs.rot_world;
         let inertia_world = rot * self.inertia_platform * rot.transpose();
         let mut m = Matrix6::zeros();
-        let mut tt = Matrix3::identity() * self.params.platform.mass;
-        let mut tr = Matrix3::zeros();
+        let mut c_sum = self.params.platform.mass;
+        let mut c_r = Vector3::zeros();
         let mut rr = inertia_world;
         for i in 0..LEGS {
-            let ml = self.leg_mass(&legs.n_world[i], legs.length[i]);
-            let rx = skew(&legs.r_world[i]);
-            let ml_rx = ml * rx;
-            tt += ml;
-            tr -= ml_rx;
-            rr -= rx * ml_rx;
+            let (a, c) = self.leg_masses(legs.length[i]);
+            let r = legs.r_world[i];
+            let n = legs.n_world[i];
+            let mr = r.cross(&n);
+            let j = Vector6::new(n.x, n.y, n.z, mr.x, mr.y, mr.z);
+            c_sum += c;
+            c_r += r * c;
+            rr += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * c;
+            m.ger(a - c, &j, &j, 1.0);
         }
-        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&tt);
-        m.fixed_view_mut::<3, 3>(0, 3).copy_from(&tr);
-        m.fixed_view_mut::<3, 3>(3, 0).copy_from(&tr.transpose());
-        m.fixed_view_mut::<3, 3>(3, 3).copy_from(&rr);
+        let tr = -skew(&c_r);
+        for k in 0..3 {
+            m[(k, k)] += c_sum;
+        }
+        let mut top_right = m.fixed_view_mut::<3, 3>(0, 3);
+        top_right += tr;
+        let mut bottom_left = m.fixed_view_mut::<3, 3>(3, 0);
+        bottom_left += tr.transpose();
+        let mut bottom_right = m.fixed_view_mut::<3, 3>(3, 3);
+        bottom_right += rr;
         m
     }
 
@@ -136,7 +145,6 @@ impl Mechanism {
     /// `tau` is the total axial force of each leg (actuator plus friction).
     pub fn residual(
         &self,
-        pose: &Pose,
         legs: &LegGeometry,
         twist: &Vector6<f64>,
         accel: &Vector6<f64>,
@@ -144,7 +152,7 @@ impl Mechanism {
     ) -> Vector6<f64> {
         let (v, w) = split(twist);
         let (a, dw) = split(accel);
-        let rot = pose.q_world.to_rotation_matrix();
+        let rot = &legs.rot_world;
         let inertia_world = rot * self.inertia_platform * rot.transpose();
         let m = self.params.platform.mass;
         let mut force = (a + Vector3::z() * self.params.gravity) * m;
@@ -161,8 +169,8 @@ impl Mechanism {
     }
 
     /// Bias b(x, ν) = residual at zero acceleration and zero force.
-    pub fn bias(&self, pose: &Pose, legs: &LegGeometry, twist: &Vector6<f64>) -> Vector6<f64> {
-        self.residual(pose, legs, twist, &Vector6::zeros(), &Vector6::zeros())
+    pub fn bias(&self, legs: &LegGeometry, twist: &Vector6<f64>) -> Vector6<f64> {
+        self.residual(legs, twist, &Vector6::zeros(), &Vector6::zeros())
     }
 
     /// M, b, J and l̇ at one state.
@@ -170,8 +178,8 @@ impl Mechanism {
         let legs = self.inverse_kinematics(pose);
         let jacobian = legs.jacobian();
         DynamicsTerms {
-            mass: self.mass_matrix(&legs, &pose.q_world),
-            bias: self.bias(pose, &legs, twist),
+            mass: self.mass_matrix(&legs),
+            bias: self.bias(&legs, twist),
             leg_rates: jacobian * twist,
             jacobian,
             legs,
@@ -228,7 +236,7 @@ impl Mechanism {
             .try_inverse()
             .ok_or(DynamicsError::SingularJacobian)?;
         let j_inv_t = j_inv.transpose();
-        let gravity_task = self.bias(pose, &t.legs, &Vector6::zeros());
+        let gravity_task = self.bias(&t.legs, &Vector6::zeros());
         let jdot_nu = t.legs.leg_accelerations(twist, &Vector6::zeros());
         Ok(JointSpaceDynamics {
             mass: j_inv_t * t.mass * j_inv,
@@ -240,7 +248,7 @@ impl Mechanism {
     /// Kinetic energy ½ νᵀ M ν, J.
     pub fn kinetic_energy(&self, pose: &Pose, twist: &Vector6<f64>) -> f64 {
         let legs = self.inverse_kinematics(pose);
-        0.5 * twist.dot(&(self.mass_matrix(&legs, &pose.q_world) * twist))
+        0.5 * twist.dot(&(self.mass_matrix(&legs) * twist))
     }
 
     /// Gravitational potential energy of platform, cylinders and rods (zero at z = 0), J.

@@ -43,6 +43,8 @@ impl Pose {
 /// Leg geometry at one pose, from inverse kinematics.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LegGeometry {
+    /// Platform orientation R as a matrix, computed once for everything downstream.
+    pub rot_world: Matrix3<f64>,
     /// Platform joint offsets rotated into {B}: r_i = R a_i, m.
     pub r_world: [Vector3<f64>; LEGS],
     /// Leg vectors l_i = p + R a_i − b_i, eq. (A.14), m.
@@ -175,8 +177,9 @@ impl Mechanism {
 
     /// Closed-form inverse kinematics, paper eqs. (A.14)–(A.16).
     pub fn inverse_kinematics(&self, pose: &Pose) -> LegGeometry {
-        let rot = pose.q_world.to_rotation_matrix();
+        let rot = *pose.q_world.to_rotation_matrix().matrix();
         let mut out = LegGeometry {
+            rot_world: rot,
             r_world: [Vector3::zeros(); LEGS],
             leg_world: [Vector3::zeros(); LEGS],
             n_world: [Vector3::zeros(); LEGS],

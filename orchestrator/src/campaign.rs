@@ -252,14 +252,6 @@ pub fn run_campaign(
         let _ = fs::remove_dir_all(dir.join("memory"));
         let _ = fs::remove_file(dir.join("summary.csv"));
     }
-    for sub in ["trials", "memory"] {
-        let p = dir.join(sub);
-        fs::create_dir_all(&p).map_err(|source| CampaignError::CreateDir { path: p, source })?;
-    }
-    write_atomic(&dir.join("scenario.toml"), |w| {
-        w.write_all(scenario_text.as_bytes())
-    })?;
-
     let last = opts
         .stop_after
         .unwrap_or(scenario.trials)
@@ -289,6 +281,17 @@ pub fn run_campaign(
                 bar.inc(1000);
             }
         })?;
+        // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
+        for sub in ["trials", "memory"] {
+            let p = dir.join(sub);
+            fs::create_dir_all(&p)
+                .map_err(|source| CampaignError::CreateDir { path: p, source })?;
+        }
+        if k == first {
+            write_atomic(&dir.join("scenario.toml"), |w| {
+                w.write_all(scenario_text.as_bytes())
+            })?;
+        }
         if record_this {
             write_recording(&trial_csv(dir, k), &recording, &CsvExporter)?;
         }

@@ -1,0 +1,240 @@
+//! The packaged FMUs through the C ABI (loaded with `fmi2::import`): independence of
+//! instances, FMU-state serialization, and the errors a user meets first.
+
+use std::path::{Path, PathBuf};
+
+use fmi2::import::{Fmu, Instance};
+
+fn fmu(name: &str) -> Fmu {
+    let dir = std::env::var_os("CKCM_FMU_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"));
+    let path = dir.join(name);
+    assert!(
+        path.exists(),
+        "{} not found: run `cargo xtask fmu` first",
+        path.display()
+    );
+    Fmu::open(&path).unwrap()
+}
+
+fn vr(f: &Fmu, name: &str) -> u32 {
+    f.model_description()
+        .variable_by_name(name)
+        .unwrap_or_else(|| panic!("no {name}"))
+        .value_reference
+}
+
+fn vrs(f: &Fmu, base: &str) -> Vec<u32> {
+    (1..=6).map(|i| vr(f, &format!("{base}[{i}]"))).collect()
+}
+
+fn start(inst: &mut Instance, reals: &[(u32, f64)]) {
+    for &(v, x) in reals {
+        inst.set_real(&[v], &[x]).unwrap();
+    }
+    inst.setup_experiment(None, 0.0, None).unwrap();
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode().unwrap();
+}
+
+const HOLD: f64 = 28.5315;
+
+/// Steps a plant under `force` for `n` steps of 1 ms, returning z after each step.
+fn heave(
+    inst: &mut Instance,
+    force: &[u32],
+    pose: &[u32],
+    f: f64,
+    n: usize,
+    t0: usize,
+) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut p = [0.0; 6];
+    for k in t0..t0 + n {
+        inst.set_real(force, &[f; 6]).unwrap();
+        inst.do_step(k as f64 * 1e-3, 1e-3, true).unwrap();
+        inst.get_real(pose, &mut p).unwrap();
+        out.push(p[2]);
+    }
+    out
+}
+
+#[test]
+fn two_plant_instances_are_independent() {
+    let plant = fmu("CkcmPlant.fmu");
+    let (force, pose) = (vrs(&plant, "force"), vrs(&plant, "pose"));
+    let rod = vr(&plant, "rod_mass");
+    // Sequential reference runs.
+    let mut a = plant.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    let ref_a = heave(&mut a, &force, &pose, HOLD, 200, 0);
+    let mut b = plant.instantiate("b", false).unwrap();
+    start(&mut b, &[(rod, 3.0)]);
+    let ref_b = heave(&mut b, &force, &pose, HOLD, 200, 0);
+    drop((a, b));
+    // The rod mass matters: with heavier rods the same forces let the platform sink.
+    assert!((ref_a[199] - 0.5).abs() < 1e-6, "{}", ref_a[199]);
+    assert!(ref_b[199] < 0.5 - 1e-4, "{}", ref_b[199]);
+    // Interleaved stepping of two live instances reproduces both runs bit for bit.
+    let mut a = plant.instantiate("a2", false).unwrap();
+    let mut b = plant.instantiate("b2", false).unwrap();
+    start(&mut a, &[]);
+    start(&mut b, &[(rod, 3.0)]);
+    let (mut za, mut zb) = (Vec::new(), Vec::new());
+    for k in 0..200 {
+        za.extend(heave(&mut a, &force, &pose, HOLD, 1, k));
+        zb.extend(heave(&mut b, &force, &pose, HOLD, 1, k));
+    }
+    assert_eq!(za, ref_a);
+    assert_eq!(zb, ref_b);
+}
+
+#[test]
+fn serialized_state_continues_bit_identically_in_a_fresh_instance() {
+    for (name, integrator) in [("CkcmPlant.fmu", 1), ("CkcmPlant.fmu", 2)] {
+        let plant = fmu(name);
+        let (force, pose) = (vrs(&plant, "force"), vrs(&plant, "pose"));
+        let mut a = plant.instantiate("a", false).unwrap();
+        a.set_integer(&[vr(&plant, "integrator")], &[integrator])
+            .unwrap();
+        start(&mut a, &[]);
+        heave(&mut a, &force, &pose, 30.0, 300, 0);
+        let state = a.get_fmu_state().unwrap();
+        let bytes = a.serialize_fmu_state(&state).unwrap();
+        let cont = heave(&mut a, &force, &pose, 27.0, 300, 300);
+        // Restore in the same instance.
+        a.set_fmu_state(&state).unwrap();
+        assert_eq!(heave(&mut a, &force, &pose, 27.0, 300, 300), cont);
+        // Restore in a fresh, never-initialised instance.
+        let mut b = plant.instantiate("b", false).unwrap();
+        let restored = b.deserialize_fmu_state(&bytes).unwrap();
+        b.set_fmu_state(&restored).unwrap();
+        assert_eq!(
+            heave(&mut b, &force, &pose, 27.0, 300, 300),
+            cont,
+            "integrator {integrator}"
+        );
+        // A truncated buffer is refused with a clear message.
+        let err = b
+            .deserialize_fmu_state(&bytes[..bytes.len() / 2])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("fmi2DeSerializeFMUstate") && err.contains("truncated"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn controller_state_serialization_keeps_the_integral() {
+    let ctl = fmu("HlcsController.fmu");
+    let (len, force) = (vrs(&ctl, "length"), vrs(&ctl, "force"));
+    let mut a = ctl.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    let mut out = [0.0; 6];
+    let step = |inst: &mut Instance, k: usize, out: &mut [f64; 6]| {
+        inst.set_real(&len, &[0.56; 6]).unwrap();
+        inst.do_step(k as f64 * 1e-3, 1e-3, true).unwrap();
+        inst.get_real(&force, out).unwrap();
+        *out
+    };
+    for k in 0..500 {
+        step(&mut a, k, &mut out);
+    }
+    let bytes = {
+        let s = a.get_fmu_state().unwrap();
+        a.serialize_fmu_state(&s).unwrap()
+    };
+    let cont: Vec<_> = (500..600).map(|k| step(&mut a, k, &mut out)).collect();
+    let mut b = ctl.instantiate("b", false).unwrap();
+    let s = b.deserialize_fmu_state(&bytes).unwrap();
+    b.set_fmu_state(&s).unwrap();
+    let again: Vec<_> = (500..600).map(|k| step(&mut b, k, &mut out)).collect();
+    assert_eq!(cont, again);
+}
+
+#[test]
+fn non_finite_input_is_an_error_naming_the_variable() {
+    let plant = fmu("CkcmPlant.fmu");
+    let force = vrs(&plant, "force");
+    let mut a = plant.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    let err = a
+        .set_real(&force[2..3], &[f64::NAN])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("force[3]") && err.contains("not finite"),
+        "{err}"
+    );
+}
+
+#[test]
+fn diverging_plant_is_an_error_never_nan_outputs() {
+    let plant = fmu("CkcmPlant.fmu");
+    let (force, pose) = (vrs(&plant, "force"), vrs(&plant, "pose"));
+    let mut a = plant.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    // Pull legs 1-3 hard in and push 4-6 hard out: the platform is torn apart.
+    let f = [-1e7, -1e7, -1e7, 1e7, 1e7, 1e7];
+    let mut failed = None;
+    let mut p = [0.0; 6];
+    for k in 0..5000 {
+        a.set_real(&force, &f).unwrap();
+        match a.do_step(k as f64 * 1e-3, 1e-3, true) {
+            Ok(_) => {
+                a.get_real(&pose, &mut p).unwrap();
+                assert!(p.iter().all(|x| x.is_finite()), "NaN output at step {k}");
+            }
+            Err(e) => {
+                failed = Some((k, e.to_string()));
+                break;
+            }
+        }
+    }
+    let (k, err) = failed.expect("a 10 MN tear never failed");
+    assert!(
+        err.contains("fmi2DoStep") && err.contains("t = "),
+        "step {k}: {err}"
+    );
+}
+
+#[test]
+fn invalid_parameter_is_rejected_at_initialization_by_name() {
+    let plant = fmu("CkcmPlant.fmu");
+    let mut a = plant.instantiate("a", false).unwrap();
+    a.set_real(&[vr(&plant, "platform_radius")], &[-0.27])
+        .unwrap();
+    a.setup_experiment(None, 0.0, None).unwrap();
+    a.enter_initialization_mode().unwrap();
+    let err = a.exit_initialization_mode().unwrap_err().to_string();
+    assert!(err.contains("platform_radius"), "{err}");
+    let ctl = fmu("HlcsController.fmu");
+    let mut c = ctl.instantiate("c", false).unwrap();
+    c.set_real(&[vr(&ctl, "model.cylinder_mass")], &[0.0])
+        .unwrap();
+    c.setup_experiment(None, 0.0, None).unwrap();
+    c.enter_initialization_mode().unwrap();
+    let err = c.exit_initialization_mode().unwrap_err().to_string();
+    assert!(err.contains("model.cylinder_mass"), "{err}");
+}
+
+#[test]
+fn log_categories_match_the_model_descriptions() {
+    for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
+        let f = fmu(name);
+        let declared: Vec<&str> = f
+            .model_description()
+            .log_categories
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect();
+        let glue: Vec<&str> = fmi2::export::LOG_CATEGORIES
+            .iter()
+            .map(|(n, _)| *n)
+            .collect();
+        assert_eq!(declared, glue, "{name}");
+    }
+}
