@@ -1,0 +1,272 @@
+//! Costs of co-simulation through the FMI 2.0 C ABI: one plant doStep (RK4 and adaptive
+//! Dormand–Prince), one controller doStep, and the coupled 15 s line trial under the
+//! orchestrator's `Master`, next to the same trial without FMI (`ckcm::closed_loop`) so the
+//! FMI overhead ratio comes from one run on one machine state.
+//!
+//! Needs the packaged FMUs: `cargo xtask fmu`, then `cargo bench -p orchestrator --bench cosim`.
+//! `CKCM_FMU_DIR` overrides where they are looked for (default `<workspace>/target/fmu`).
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use ckcm::closed_loop::run_trial;
+use ckcm::nalgebra::Vector6;
+use ckcm::{ControlSettings, Hlcs, Integrator, Mechanism, Params, Trajectory};
+use criterion::{Criterion, criterion_group, criterion_main};
+use fmi2::import::{Fmu, Instance};
+use orchestrator::master::Master;
+use orchestrator::scenario::Scenario;
+
+/// Communication step, s.
+const H: f64 = 1e-3;
+/// Legs, and so the width of every array variable of both FMUs.
+const LEGS: usize = 6;
+
+/// `$CKCM_FMU_DIR/<name>.fmu`, else `<workspace>/target/fmu/<name>.fmu`.
+fn fmu_path(name: &str) -> PathBuf {
+    let dir = std::env::var_os("CKCM_FMU_DIR").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"),
+        PathBuf::from,
+    );
+    let path = dir.join(format!("{name}.fmu"));
+    assert!(
+        path.is_file(),
+        "{} is missing: run cargo xtask fmu (or set CKCM_FMU_DIR)",
+        path.display()
+    );
+    std::fs::canonicalize(&path).expect("an existing file has a canonical path")
+}
+
+fn open(name: &str) -> Fmu {
+    Fmu::open(fmu_path(name)).unwrap_or_else(|e| panic!("cannot open {name}.fmu: {e}"))
+}
+
+/// Value references of `base[1]` .. `base[6]`.
+fn array_vrs(fmu: &Fmu, base: &str) -> [u32; LEGS] {
+    std::array::from_fn(|i| {
+        let name = format!("{base}[{}]", i + 1);
+        fmu.model_description()
+            .variable_by_name(&name)
+            .unwrap_or_else(|| panic!("no variable {name}"))
+            .value_reference
+    })
+}
+
+fn vr(fmu: &Fmu, name: &str) -> u32 {
+    fmu.model_description()
+        .variable_by_name(name)
+        .unwrap_or_else(|| panic!("no variable {name}"))
+        .value_reference
+}
+
+/// An instance in step mode at t = 0, after `configure` set its parameters.
+fn started(fmu: &Fmu, name: &str, configure: impl FnOnce(&mut Instance)) -> Instance {
+    let mut inst = fmu.instantiate(name, false).expect("instantiate");
+    configure(&mut inst);
+    inst.setup_experiment(None, 0.0, None).expect("setup");
+    inst.enter_initialization_mode().expect("enter init");
+    inst.exit_initialization_mode().expect("exit init");
+    inst
+}
+
+/// One plant doStep with its I/O, as a master calls it: set the six forces, step 1 ms, read
+/// all 18 outputs. The forces come from a stiff PD law towards leg lengths oscillating ±5 mm
+/// about home, so the platform keeps moving (a plant at rest would flatter the adaptive
+/// integrator) and stays bounded however many iterations criterion runs.
+fn plant_step(c: &mut Criterion) {
+    let fmu = open("CkcmPlant");
+    let force = array_vrs(&fmu, "force");
+    let outputs: Vec<u32> = ["length", "velocity", "pose"]
+        .iter()
+        .flat_map(|b| array_vrs(&fmu, b))
+        .collect();
+    let mech = Mechanism::new(Params::default()).expect("default parameters are valid");
+    let hold = mech
+        .static_forces(&mech.home())
+        .expect("home is not singular");
+    let l_home = mech.inverse_kinematics(&mech.home()).length;
+    let integrator = vr(&fmu, "integrator");
+    let rtol = vr(&fmu, "relative_tolerance");
+    let mut g = c.benchmark_group("plant_do_step");
+    for (label, adaptive) in [("rk4", false), ("dormand_prince_1e-8", true)] {
+        let mut inst = started(&fmu, "plant", |inst| {
+            if adaptive {
+                inst.set_integer(&[integrator], &[2])
+                    .expect("set integrator");
+                inst.set_real(&[rtol], &[1e-8])
+                    .expect("set relative_tolerance");
+            }
+        });
+        let mut y = [0.0; 3 * LEGS];
+        inst.get_real(&outputs, &mut y).expect("get outputs");
+        let mut n = 0u64;
+        g.bench_function(label, |b| {
+            b.iter(|| {
+                let t = n as f64 * H;
+                let wobble = 0.005 * (std::f64::consts::TAU * t).sin();
+                let f: [f64; LEGS] = std::array::from_fn(|i| {
+                    hold[i] + 5e4 * (l_home[i] + wobble - y[i]) - 850.0 * y[LEGS + i]
+                });
+                inst.set_real(&force, &f).expect("set force");
+                inst.do_step(t, H, true).expect("plant step");
+                inst.get_real(&outputs, &mut y).expect("get outputs");
+                n += 1;
+                black_box(&y);
+            })
+        });
+    }
+    g.finish();
+}
+
+/// One controller doStep with its I/O: set length, velocity and memory, step, read force and
+/// memory_next. Line trajectory with learning on (the defaults).
+fn controller_step(c: &mut Criterion) {
+    let fmu = open("HlcsController");
+    let inputs: Vec<u32> = ["length", "velocity", "memory"]
+        .iter()
+        .flat_map(|b| array_vrs(&fmu, b))
+        .collect();
+    let outputs: Vec<u32> = ["force", "memory_next"]
+        .iter()
+        .flat_map(|b| array_vrs(&fmu, b))
+        .collect();
+    let mech = Mechanism::new(Params::default()).expect("default parameters are valid");
+    let l_home = mech.inverse_kinematics(&mech.home()).length;
+    let mut u = [0.0; 3 * LEGS];
+    u[..LEGS].copy_from_slice(l_home.as_slice());
+    u[2 * LEGS..].fill(1.0);
+    let mut y = [0.0; 2 * LEGS];
+    let mut inst = started(&fmu, "controller", |_| {});
+    let mut n = 0u64;
+    c.bench_function("controller_do_step", |b| {
+        b.iter(|| {
+            let t = n as f64 * H;
+            inst.set_real(&inputs, black_box(&u)).expect("set inputs");
+            inst.do_step(t, H, true).expect("controller step");
+            inst.get_real(&outputs, &mut y).expect("get outputs");
+            n += 1;
+            black_box(&y);
+        })
+    });
+}
+
+/// The coupled scenario of `scenarios/line-hlcs.toml` (15 s line, HLCS, everything recorded
+/// at every sample, metrics on), with absolute FMU paths.
+fn line_scenario_toml() -> String {
+    format!(
+        r#"
+step_size = 0.001
+stop_time = 15.0
+trials = 2
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "line"
+duration = 15.0
+learning = true
+psi = 7.5
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+
+[record]
+variables = ["controller.error", "controller.force", "controller.memory_next", "plant.length", "plant.pose"]
+interval = 1
+
+[metrics]
+error = "controller.error"
+rho = 1.0
+pose = "plant.pose"
+trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
+"#,
+        controller = fmu_path("HlcsController").display(),
+        plant = fmu_path("CkcmPlant").display(),
+    )
+}
+
+/// Trial ≥ 1 of the 15 s line through the orchestrator's `Master` and through the FMI-free
+/// loop. Both restore the memory trial 0 learned before every iteration, so every sample
+/// times the same (non-zero-memory) trial.
+fn line_trial(c: &mut Criterion) {
+    let text = line_scenario_toml();
+    let mut fmus = Vec::new();
+    let scenario = Scenario::parse(&text, Path::new("bench-line.toml"), |path| {
+        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+        let md = fmu.model_description().clone();
+        fmus.push(fmu);
+        Ok(md)
+    })
+    .expect("valid scenario");
+    let mut master = Master::new(&scenario, fmus, false).expect("master");
+    let mut recording = master.new_recording();
+    let mut signals = master.new_signals();
+    master
+        .run_trial(0, Some(&mut recording), &mut signals, |_| {})
+        .expect("trial 0");
+    let learned: Vec<Vec<f64>> = master.memory().iter().map(|m| m.to_vec()).collect();
+    assert!(
+        learned.iter().flatten().any(|&u| u != 0.0),
+        "trial 0 learned nothing"
+    );
+
+    let plant = Mechanism::new(Params::default()).expect("default parameters are valid");
+    let nominal = Mechanism::new(Params::nominal()).expect("nominal parameters are valid");
+    let trajectory = Trajectory::line(plant.params.geometry.home_height);
+    let steps = scenario.steps;
+    let floor = |read: &[Vector6<f64>], write: &mut [Vector6<f64>]| {
+        let mut controller = Hlcs::new(nominal, ControlSettings::default());
+        let mut integrator = Integrator::default();
+        run_trial(
+            &plant,
+            &mut integrator,
+            &mut controller,
+            &trajectory,
+            H,
+            read,
+            write,
+            |_, _, _| {},
+        )
+        .expect("the line trial runs")
+    };
+    let mut floor_memory = vec![Vector6::zeros(); steps];
+    let mut floor_next = vec![Vector6::zeros(); steps];
+    floor(&vec![Vector6::zeros(); steps], &mut floor_memory);
+
+    let mut g = c.benchmark_group("line_trial_15s");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    g.bench_function("orchestrator", |b| {
+        b.iter(|| {
+            master.set_memory(&learned);
+            master
+                .run_trial(1, Some(&mut recording), &mut signals, |_| {})
+                .expect("trial 1");
+        })
+    });
+    g.bench_function("floor", |b| {
+        b.iter(|| floor(black_box(&floor_memory), &mut floor_next))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, plant_step, controller_step, line_trial);
+criterion_main!(benches);
