@@ -1,0 +1,150 @@
+//! After a warm-up step, the plant's doStep with its input/output calls performs no heap
+//! allocation, with either integrator: checked with a counting global allocator while the
+//! model is driven through the safe `fmi2::export::Model` trait.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use ckcm::{Mechanism, Params};
+use ckcm_plant::CkcmPlant;
+use ckcm_plant::md::VARIABLES;
+use fmi2::export::Model;
+
+/// Forwards to the system allocator and counts allocations of the calling thread.
+///
+/// The counter is per thread because the test harness runs tests on parallel threads; a
+/// global counter would charge one test with another's allocations.
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
+// `GlobalAlloc` contract; the only extra work is bumping a const-initialised thread-local
+// `Cell`, which never allocates (so the allocator cannot recurse into itself) and cannot
+// unwind. `try_with` skips the count once the thread's locals are destroyed.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+fn count() {
+    let _ = ALLOCATIONS.try_with(|a| a.set(a.get() + 1));
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+/// Value reference of a variable by name.
+fn vr(name: &str) -> u32 {
+    VARIABLES
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("CkcmPlant has no variable {name}"))
+        .value_reference
+}
+
+fn array(base: &str) -> [u32; 6] {
+    std::array::from_fn(|i| vr(&format!("{base}[{}]", i + 1)))
+}
+
+const H: f64 = 1e-3;
+const STEPS: u32 = 1000;
+
+/// Initialises a plant (`adaptive` selects Dormand–Prince at relative tolerance 1e-8), takes
+/// one warm-up step, then counts the allocations of 1000 doSteps, each with the six forces
+/// set and all 18 outputs read. The forces hold the platform against gravity plus a PD pull
+/// towards leg lengths swinging ±5 mm about home, so the state keeps changing. Returns the
+/// count and the last leg lengths.
+fn count_steps(adaptive: bool) -> (usize, [f64; 6]) {
+    let force = array("force");
+    let outputs: Vec<u32> = ["length", "velocity", "pose"]
+        .iter()
+        .flat_map(|b| array(b))
+        .collect();
+    let mech = Mechanism::new(Params::default()).unwrap();
+    let hold = mech.static_forces(&mech.home()).unwrap();
+    let l_home = mech.inverse_kinematics(&mech.home()).length;
+
+    let mut plant = CkcmPlant::new();
+    if adaptive {
+        plant.set_integer(vr("integrator"), 2).unwrap();
+        plant.set_real(vr("relative_tolerance"), 1e-8).unwrap();
+    }
+    plant.initialize(0.0).unwrap();
+    let mut y = [0.0; 18];
+    let step = |plant: &mut CkcmPlant, n: u32, y: &mut [f64; 18]| {
+        let t = f64::from(n) * H;
+        let wobble = 0.005 * (std::f64::consts::TAU * t).sin();
+        for i in 0..6 {
+            let f = hold[i] + 5e4 * (l_home[i] + wobble - y[i]) - 850.0 * y[6 + i];
+            plant.set_real(force[i], f).unwrap();
+        }
+        plant.do_step(t, H).unwrap();
+        for (out, &r) in y.iter_mut().zip(&outputs) {
+            *out = plant.get_real(r);
+        }
+    };
+    for (out, &r) in y.iter_mut().zip(&outputs) {
+        *out = plant.get_real(r);
+    }
+    step(&mut plant, 0, &mut y);
+    let before = allocations();
+    for n in 1..=STEPS {
+        step(&mut plant, n, &mut y);
+    }
+    let during = allocations() - before;
+    (during, std::array::from_fn(|i| y[i]))
+}
+
+#[test]
+fn rk4_step_loop_does_not_allocate() {
+    let (during, length) = count_steps(false);
+    assert_eq!(during, 0, "1000 RK4 doSteps allocated {during} times");
+    assert!(length.iter().all(|l| (0.5..0.65).contains(l)), "{length:?}");
+}
+
+#[test]
+fn dormand_prince_step_loop_does_not_allocate() {
+    let (during, length) = count_steps(true);
+    assert_eq!(
+        during, 0,
+        "1000 Dormand–Prince doSteps allocated {during} times"
+    );
+    assert!(length.iter().all(|l| (0.5..0.65).contains(l)), "{length:?}");
+}
+
+/// The counter sees allocations at all: a rejected input builds its error message.
+#[test]
+fn counter_counts() {
+    let mut plant = CkcmPlant::new();
+    plant.initialize(0.0).unwrap();
+    let before = allocations();
+    assert!(plant.set_real(vr("force[1]"), f64::NAN).is_err());
+    assert!(allocations() > before);
+}
