@@ -1,0 +1,198 @@
+//! After a warm-up trial, `Master::run_trial` allocates nothing: the master loop only copies
+//! between buffers sized in `Master::new`, `new_recording` and `new_signals`.
+//!
+//! The counting allocator is this test binary's global allocator, so it counts the master's
+//! own allocations (and fmi2::import's); the FMUs are shared libraries with their own
+//! allocator, covered by the tests in fmu-plant/ and fmu-controller/.
+//!
+//! To find an allocation, run with `CKCM_ALLOC_BACKTRACE=1` (and `--nocapture`): every counted
+//! allocation then prints its backtrace to stderr.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::backtrace::Backtrace;
+use std::cell::Cell;
+use std::path::Path;
+
+use fmi2::import::Fmu;
+use orchestrator::master::Master;
+use orchestrator::scenario::Scenario;
+
+/// Forwards to the system allocator and counts allocations of the calling thread.
+///
+/// The counter is per thread because the test harness runs tests on parallel threads; a
+/// global counter would charge one test with another's allocations.
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+    /// Print a backtrace for every counted allocation.
+    static TRACE: Cell<bool> = const { Cell::new(false) };
+    /// Set while a backtrace is being printed: its own allocations are neither counted nor
+    /// traced, so the allocator never recurses into itself.
+    static IN_HOOK: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    let _ = IN_HOOK.try_with(|hook| {
+        if hook.get() {
+            return;
+        }
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        if TRACE.with(Cell::get) {
+            hook.set(true);
+            eprintln!("allocation:\n{}", Backtrace::force_capture());
+            hook.set(false);
+        }
+    });
+}
+
+// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
+// `GlobalAlloc` contract. The extra work touches const-initialised thread-local `Cell`s,
+// which never allocate; the optional backtrace does allocate, but `IN_HOOK` makes those
+// nested calls go straight to `System`, so there is no unbounded recursion. `try_with`
+// skips the count once the thread's locals are destroyed.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+/// Counts the allocations of `f` on this thread, tracing them if `CKCM_ALLOC_BACKTRACE` is set.
+fn counted<T>(f: impl FnOnce() -> T) -> (usize, T) {
+    let trace = std::env::var_os("CKCM_ALLOC_BACKTRACE").is_some();
+    let before = allocations();
+    TRACE.with(|t| t.set(trace));
+    let out = f();
+    TRACE.with(|t| t.set(false));
+    (allocations() - before, out)
+}
+
+/// A 2 s line under HLCS with recording at every sample and the metrics ports, with the
+/// packaged FMUs.
+fn scenario_toml() -> String {
+    let path = |name: &str| {
+        std::fs::canonicalize(common::built_fmu(name))
+            .unwrap()
+            .display()
+            .to_string()
+    };
+    format!(
+        r#"
+step_size = 0.001
+stop_time = 2.0
+trials = 3
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "line"
+duration = 2.0
+learning = true
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+
+[record]
+variables = ["controller.error", "controller.force", "controller.memory_next", "plant.length", "plant.pose"]
+interval = 1
+
+[metrics]
+error = "controller.error"
+pose = "plant.pose"
+trajectory = {{ kind = "line", duration = 2.0, home_height = 0.5 }}
+"#,
+        controller = path("HlcsController"),
+        plant = path("CkcmPlant"),
+    )
+}
+
+#[test]
+fn trials_after_the_first_do_not_allocate() {
+    let text = scenario_toml();
+    let mut fmus = Vec::new();
+    let scenario = Scenario::parse(&text, Path::new("alloc-line.toml"), |path| {
+        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+        let md = fmu.model_description().clone();
+        fmus.push(fmu);
+        Ok(md)
+    })
+    .unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+    let mut recording = master.new_recording();
+    let mut signals = master.new_signals();
+    let mut steps = 0;
+    master
+        .run_trial(0, Some(&mut recording), &mut signals, |_| steps += 1)
+        .unwrap();
+    assert_eq!(steps, 2000);
+
+    for trial in 1..3 {
+        let (during, result) =
+            counted(|| master.run_trial(trial, Some(&mut recording), &mut signals, |_| {}));
+        result.unwrap();
+        assert_eq!(
+            during, 0,
+            "trial {trial} allocated {during} times (CKCM_ALLOC_BACKTRACE=1 shows where)"
+        );
+        // The trial did run and record: every sample, with non-zero learned memory.
+        assert_eq!(recording.len(), 2000);
+        assert_eq!(signals.time.len(), 2000);
+        let memory = master.memory();
+        assert!(memory[0].iter().any(|&u| u != 0.0));
+    }
+}
+
+/// The counter sees the master's allocations at all: building a recording allocates.
+#[test]
+fn counter_counts() {
+    let (during, recording) =
+        counted(|| orchestrator::output::Recording::with_capacity(vec![], 10));
+    assert!(during > 0);
+    assert!(recording.is_empty());
+}
