@@ -1,0 +1,122 @@
+//! The export glue's step-loop entry points (fmi2SetReal, fmi2DoStep, fmi2GetReal,
+//! fmi2GetInteger) allocate nothing on success after a warm-up step, so an FMU whose model
+//! does not allocate stays allocation-free behind the C ABI. Checked on the test oscillator
+//! with a counting global allocator.
+
+mod export_support;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use export_support::{Fmu, Oscillator, status, vr};
+use fmi2::Status;
+use fmi2::export::abi;
+
+/// Forwards to the system allocator and counts allocations of the calling thread (per
+/// thread, so parallel test threads do not interfere).
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() {
+    let _ = ALLOCATIONS.try_with(|a| a.set(a.get() + 1));
+}
+
+// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
+// `GlobalAlloc` contract; the only extra work bumps a const-initialised thread-local `Cell`,
+// which never allocates (no recursion) and cannot unwind.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+const H: f64 = 1e-3;
+
+/// One master step on the raw ABI with stack buffers only: set the force, step, read x and v
+/// and the step counter.
+fn step(fmu: &Fmu, n: u32, xv: &mut [f64; 2], steps: &mut [i32; 1]) -> [Status; 4] {
+    let t = f64::from(n) * H;
+    let force = [(t * 10.0).sin()];
+    let outs = [vr::X, vr::V];
+    // SAFETY: `fmu.c` is a live instance; every array is as long as the count passed with it.
+    unsafe {
+        [
+            status(abi::set_real::<Oscillator>(
+                fmu.c,
+                &vr::FORCE,
+                1,
+                force.as_ptr(),
+            )),
+            status(abi::do_step::<Oscillator>(fmu.c, t, H, 1)),
+            status(abi::get_real::<Oscillator>(
+                fmu.c,
+                outs.as_ptr(),
+                2,
+                xv.as_mut_ptr(),
+            )),
+            status(abi::get_integer::<Oscillator>(
+                fmu.c,
+                &vr::STEP_COUNT,
+                1,
+                steps.as_mut_ptr(),
+            )),
+        ]
+    }
+}
+
+#[test]
+fn step_loop_through_the_abi_does_not_allocate() {
+    let fmu = Fmu::initialized("alloc");
+    let mut xv = [0.0; 2];
+    let mut steps = [0];
+    assert_eq!(step(&fmu, 0, &mut xv, &mut steps), [Status::Ok; 4]);
+    let before = allocations();
+    for n in 1..=1000 {
+        let statuses = step(&fmu, n, &mut xv, &mut steps);
+        assert!(statuses == [Status::Ok; 4]);
+    }
+    let during = allocations() - before;
+    assert_eq!(during, 0, "1000 ABI steps allocated {during} times");
+    assert_eq!(steps[0], 1001);
+    assert!(xv[0] != 0.0 && xv[1].is_finite());
+}
+
+/// The counter sees the glue's allocations at all: a rejected call logs a formatted message.
+#[test]
+fn counter_counts() {
+    let fmu = Fmu::initialized("alloc-error");
+    let before = allocations();
+    // SAFETY: live instance, arrays of length 1.
+    let s = unsafe { abi::set_real::<Oscillator>(fmu.c, &vr::FORCE, 1, [f64::NAN].as_ptr()) };
+    assert_ne!(status(s), Status::Ok);
+    assert!(allocations() > before);
+}
