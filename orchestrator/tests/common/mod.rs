@@ -45,8 +45,10 @@ pub fn foreign_xml() -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// The foreign FMU's shared library of this test profile, built with cargo if missing
-/// (`cargo test -p orchestrator` does not build other workspace members).
+/// The foreign FMU's shared library of this test profile, (re)built with cargo first:
+/// `cargo test -p orchestrator` builds no other workspace member, and a library left over
+/// from an older checkout would silently test old code. When the library is current the
+/// build is a no-op.
 pub fn foreign_cdylib() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
     LIB.get_or_init(|| {
@@ -56,22 +58,20 @@ pub fn foreign_cdylib() -> &'static Path {
             .parent()
             .and_then(Path::parent)
             .expect("test executable inside target/<profile>/deps");
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(workspace_root())
+            .args(["build", "--quiet", "-p", "foreign-fmu"]);
+        if profile_dir.file_name().is_some_and(|n| n == "release") {
+            cmd.arg("--release");
+        }
+        let status = cmd.status().expect("cannot run cargo");
+        assert!(status.success(), "cargo build -p foreign-fmu failed");
         let lib = profile_dir.join(format!(
             "{}foreign_fmu.{}",
             std::env::consts::DLL_PREFIX,
             std::env::consts::DLL_EXTENSION
         ));
-        if !lib.is_file() {
-            let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-            let mut cmd = Command::new(cargo);
-            cmd.current_dir(workspace_root())
-                .args(["build", "--quiet", "-p", "foreign-fmu"]);
-            if profile_dir.file_name().is_some_and(|n| n == "release") {
-                cmd.arg("--release");
-            }
-            let status = cmd.status().expect("cannot run cargo");
-            assert!(status.success(), "cargo build -p foreign-fmu failed");
-        }
         assert!(lib.is_file(), "{} was not built", lib.display());
         lib
     })
