@@ -4,8 +4,9 @@
 //! Output directory layout:
 //! - `scenario.toml`: the scenario as run;
 //! - `trials/trial_NNN.csv`: recorded variables of each recorded trial;
-//! - `memory/after_trial_NNN.csv`: the iteration memory the last completed trial NNN produced
-//!   (read by trial NNN+1; older ones are removed once the next trial is recorded as done);
+//! - `memory/after_trial_NNN.f64`: the iteration memory the last completed trial NNN produced
+//!   (read by trial NNN+1; exact binary; older ones are removed once the next trial is done);
+//! - `memory.csv`: that memory as a table, written when the run ends;
 //! - `summary.csv`: metrics of every completed trial;
 //! - `progress.toml`: completed trial count and a fingerprint of scenario and FMUs,
 //!   written last, so it never claims a trial whose files are missing.
@@ -19,8 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::master::{Master, MasterError, TrialSignals};
 use crate::output::{
-    CsvExporter, OutputError, Recording, read_recording_csv, write_atomic, write_recording,
-    write_table_csv,
+    CsvExporter, OutputError, Recording, write_atomic, write_recording, write_table_csv,
 };
 use crate::scenario::Scenario;
 
@@ -176,8 +176,91 @@ fn trial_csv(dir: &Path, k: usize) -> PathBuf {
     dir.join("trials").join(format!("trial_{k:03}.csv"))
 }
 
-fn memory_csv(dir: &Path, k: usize) -> PathBuf {
-    dir.join("memory").join(format!("after_trial_{k:03}.csv"))
+fn memory_file(dir: &Path, k: usize) -> PathBuf {
+    dir.join("memory").join(format!("after_trial_{k:03}.f64"))
+}
+
+/// Magic bytes of a memory file (format version 1).
+const MEMORY_MAGIC: &[u8; 8] = b"CKCMMEM1";
+
+/// The iteration memory for resuming, exact and fast: `CKCMMEM1`, the channel count and
+/// each channel's length (u64), then every channel's values (f64), all little-endian.
+/// Formatting 10⁵ floats as text after every trial would cost more than the trial's
+/// co-simulation overhead; the readable `memory.csv` is written once at the end.
+fn write_memory(path: &Path, buffers: &[&[f64]]) -> Result<(), OutputError> {
+    write_atomic(path, |w| {
+        w.write_all(MEMORY_MAGIC)?;
+        w.write_all(&(buffers.len() as u64).to_le_bytes())?;
+        for b in buffers {
+            w.write_all(&(b.len() as u64).to_le_bytes())?;
+        }
+        for b in buffers {
+            for x in *b {
+                w.write_all(&x.to_le_bytes())?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Reads a memory file, checking it holds channels of exactly `lens` values.
+fn read_memory(path: &Path, lens: &[usize]) -> Result<Vec<Vec<f64>>, String> {
+    let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let bad = |what: &str| format!("{}: {what}", path.display());
+    let mut at = 0;
+    let mut take = |n: usize| -> Result<&[u8], String> {
+        let s = bytes
+            .get(at..at + n)
+            .ok_or_else(|| bad("truncated memory file"))?;
+        at += n;
+        Ok(s)
+    };
+    if take(8)? != MEMORY_MAGIC {
+        return Err(bad("not a memory file of this program"));
+    }
+    let u64_at = |s: &[u8]| u64::from_le_bytes(s.try_into().expect("8 bytes")) as usize;
+    if u64_at(take(8)?) != lens.len() {
+        return Err(bad("memory channels do not match the scenario"));
+    }
+    for &len in lens {
+        if u64_at(take(8)?) != len {
+            return Err(bad("memory length does not match the scenario"));
+        }
+    }
+    let mut out = Vec::with_capacity(lens.len());
+    for &len in lens {
+        let raw = take(len * 8)?;
+        out.push(
+            raw.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect(),
+        );
+    }
+    if at != bytes.len() {
+        return Err(bad("trailing bytes in memory file"));
+    }
+    Ok(out)
+}
+
+/// The final memory as a readable table: `time`, then one column per memory element.
+fn write_memory_csv(
+    path: &Path,
+    scenario: &Scenario,
+    names: &[String],
+    buffers: &[&[f64]],
+) -> Result<(), OutputError> {
+    let mut mem = Recording::with_capacity(names.to_vec(), scenario.steps);
+    let mut row = vec![0.0; names.len()];
+    for n in 0..scenario.steps {
+        let mut col = 0;
+        for (c, l) in scenario.memory.iter().enumerate() {
+            let width = l.from.value_references.len();
+            row[col..col + width].copy_from_slice(&buffers[c][n * width..(n + 1) * width]);
+            col += width;
+        }
+        mem.push_row(scenario.time(n), &row);
+    }
+    write_recording(path, &mem, &CsvExporter)
 }
 
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
@@ -219,30 +302,12 @@ pub fn run_campaign(
         summaries = rows.into_iter().take(p.completed).collect();
         first = p.completed;
         if first > 0 {
-            let rec = read_recording_csv(&memory_csv(dir, first - 1))?;
-            let mut data = Vec::new();
-            let mut col = 0;
-            for l in &scenario.memory {
-                let width = l.from.value_references.len();
-                let mut v = vec![0.0; scenario.steps * width];
-                for i in 0..width {
-                    let c = rec
-                        .columns
-                        .get(col + i)
-                        .filter(|c| c.len() == scenario.steps)
-                        .ok_or_else(|| {
-                            resume_err(format!(
-                                "memory file of trial {} does not match the scenario",
-                                first - 1
-                            ))
-                        })?;
-                    for (n, &x) in c.iter().enumerate() {
-                        v[n * width + i] = x;
-                    }
-                }
-                col += width;
-                data.push(v);
-            }
+            let lens: Vec<usize> = scenario
+                .memory
+                .iter()
+                .map(|l| scenario.steps * l.from.value_references.len())
+                .collect();
+            let data = read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?;
             master.set_memory(&data);
         }
     } else {
@@ -295,19 +360,7 @@ pub fn run_campaign(
         if record_this {
             write_recording(&trial_csv(dir, k), &recording, &CsvExporter)?;
         }
-        let mut mem = Recording::with_capacity(memory_names.clone(), scenario.steps);
-        let buffers = master.memory();
-        let mut row = vec![0.0; memory_names.len()];
-        for n in 0..scenario.steps {
-            let mut col = 0;
-            for (c, l) in scenario.memory.iter().enumerate() {
-                let width = l.from.value_references.len();
-                row[col..col + width].copy_from_slice(&buffers[c][n * width..(n + 1) * width]);
-                col += width;
-            }
-            mem.push_row(scenario.time(n), &row);
-        }
-        write_recording(&memory_csv(dir, k), &mem, &CsvExporter)?;
+        write_memory(&memory_file(dir, k), &master.memory())?;
         summaries.push(TrialSummary::compute(k, scenario, &signals));
         let rows: Vec<Vec<String>> = summaries.iter().map(TrialSummary::to_row).collect();
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
@@ -315,10 +368,18 @@ pub fn run_campaign(
         write_atomic(&progress_file, |w| w.write_all(progress.as_bytes()))?;
         // Resume needs only the newest memory; the older one is stale once progress moved on.
         if k > 0 {
-            let _ = fs::remove_file(memory_csv(dir, k - 1));
+            let _ = fs::remove_file(memory_file(dir, k - 1));
         }
     }
     bar.finish_and_clear();
+    if last > first {
+        write_memory_csv(
+            &dir.join("memory.csv"),
+            scenario,
+            &memory_names,
+            &master.memory(),
+        )?;
+    }
     Ok(summaries)
 }
 

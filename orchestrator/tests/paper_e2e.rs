@@ -99,7 +99,7 @@ fn paper_study_writes_every_file_and_learning_works() {
                 "scenario.toml",
                 "summary.csv",
                 "progress.toml",
-                "memory/after_trial_004.csv",
+                "memory/after_trial_004.f64",
             ] {
                 assert!(case.join(f).is_file(), "{t}/{s}/{f}");
             }

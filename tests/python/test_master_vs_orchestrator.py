@@ -92,7 +92,7 @@ def test_every_sample_matches_the_orchestrator(
             )
     # The memory the orchestrator saved for a next trial is what fmpy would carry over.
     last = TRIALS - 1
-    _, memory = read_csv(orchestrator_out / "memory" / f"after_trial_{last:03}.csv")
+    _, memory = read_csv(orchestrator_out / "memory.csv")
     np.testing.assert_allclose(
         fmpy_trials[last].memory_next, memory[:, 1:], rtol=RTOL, atol=ATOL, err_msg="memory"
     )

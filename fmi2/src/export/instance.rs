@@ -272,7 +272,14 @@ pub(crate) struct Instance<M: Model> {
     enabled: [bool; 5],
     /// `(value reference, index into M::VARIABLES)`, sorted by value reference.
     index: Vec<(u32, usize)>,
+    /// Per [`Access`], `value reference → 1 + index into M::VARIABLES` (0: none). Value
+    /// references are usually small dense integers, and get/set run every step for every
+    /// scalar, so a direct table replaces the search; empty when they are too sparse.
+    direct: [Vec<u32>; 3],
 }
+
+/// Largest value reference for which [`Instance`] builds direct lookup tables.
+const DIRECT_TABLE_LIMIT: u32 = 1 << 16;
 
 impl<M: Model> std::fmt::Debug for Instance<M> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -294,6 +301,22 @@ impl<M: Model> Instance<M> {
             .map(|(i, v)| (v.value_reference, i))
             .collect();
         index.sort_by_key(|&(vr, _)| vr);
+        let mut direct: [Vec<u32>; 3] = Default::default();
+        let max = index.last().map_or(0, |&(vr, _)| vr);
+        if max < DIRECT_TABLE_LIMIT {
+            for (k, access) in [Access::Real, Access::Integer, Access::Boolean]
+                .into_iter()
+                .enumerate()
+            {
+                direct[k] = vec![0; max as usize + 1];
+                // The first declared variable of a type wins, as in the search below.
+                for &(vr, i) in index.iter().rev() {
+                    if access.accepts(M::VARIABLES[i].var_type) {
+                        direct[k][vr as usize] = i as u32 + 1;
+                    }
+                }
+            }
+        }
         Self {
             tag: Tag::new::<M>(INSTANCE_MAGIC),
             model,
@@ -302,6 +325,7 @@ impl<M: Model> Instance<M> {
             sink,
             enabled: [logging_on; 5],
             index,
+            direct,
         }
     }
 
@@ -392,6 +416,13 @@ impl<M: Model> Instance<M> {
         access: Access,
         vr: u32,
     ) -> Result<&'static VarSpec, Failure> {
+        let slot = self.direct[access as usize]
+            .get(vr as usize)
+            .copied()
+            .unwrap_or(0);
+        if slot != 0 {
+            return Ok(&M::VARIABLES[slot as usize - 1]);
+        }
         let start = self.index.partition_point(|&(r, _)| r < vr);
         let candidates = self.index[start..].iter().take_while(|&&(r, _)| r == vr);
         let mut wrong_type = None;

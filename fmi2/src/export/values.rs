@@ -17,7 +17,11 @@ pub struct Values {
 impl Values {
     /// Values at the start values of a generated `START` table.
     pub fn from_start(start: &[(u32, VarType, f64)]) -> Self {
-        let size = start.iter().map(|&(vr, _, _)| vr as usize + 1).max().unwrap_or(0);
+        let size = start
+            .iter()
+            .map(|&(vr, _, _)| vr as usize + 1)
+            .max()
+            .unwrap_or(0);
         let mut v = Self {
             reals: vec![0.0; size],
             integers: vec![0; size],
@@ -55,8 +59,13 @@ impl Values {
     /// Stores a Real value.
     #[inline]
     pub fn set_real(&mut self, vr: u32, value: f64) {
-        self.ensure(vr);
-        self.reals[vr as usize] = value;
+        match self.reals.get_mut(vr as usize) {
+            Some(slot) => *slot = value,
+            None => {
+                self.ensure(vr);
+                self.reals[vr as usize] = value;
+            }
+        }
     }
 
     /// Six consecutive Reals starting at `first` (an array variable `x[1]..x[6]`).
@@ -117,7 +126,9 @@ impl Values {
     pub fn restore(&mut self, input: &mut ByteReader<'_>) -> ModelResult<()> {
         let n = input.u64()? as usize;
         if n > 1 << 20 {
-            return Err(ModelError::error(format!("implausible variable count {n} in saved state")));
+            return Err(ModelError::error(format!(
+                "implausible variable count {n} in saved state"
+            )));
         }
         let mut reals = Vec::with_capacity(n);
         for _ in 0..n {
@@ -131,7 +142,11 @@ impl Values {
         for _ in 0..n {
             booleans.push(input.u8()? != 0);
         }
-        *self = Self { reals, integers, booleans };
+        *self = Self {
+            reals,
+            integers,
+            booleans,
+        };
         Ok(())
     }
 }
@@ -211,7 +226,10 @@ impl ByteReader<'_> {
         if self.0.is_empty() {
             Ok(())
         } else {
-            Err(ModelError::error(format!("saved model state has {} unexpected trailing bytes", self.0.len())))
+            Err(ModelError::error(format!(
+                "saved model state has {} unexpected trailing bytes",
+                self.0.len()
+            )))
         }
     }
 }
