@@ -277,6 +277,8 @@ impl Mechanism {
 /// constant bounds the loops unroll completely, and in profiles the generic factorisation
 /// plus its two triangular solves was the largest single cost of a forward-dynamics
 /// evaluation after the Newton–Euler bias.
+// Index loops state the textbook algorithm directly; iterator forms obscure it.
+#[allow(clippy::needless_range_loop)]
 fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
     let mut l = [[0.0_f64; 6]; 6];
     for j in 0..6 {
