@@ -145,20 +145,17 @@ impl HlcsController {
             .as_ref()
             .ok_or_else(|| ModelError::error("not initialized"))?;
         let reference = self.reference(sim, t);
-        let mut law = sim.law;
+        let sim = self.sim.as_mut().expect("checked above");
         // Gains are tunable between steps.
-        law.settings = settings;
-        let (out, integral) = law.evaluate(&reference, &input, h).map_err(|e| {
+        sim.law.settings = settings;
+        let (out, integral) = sim.law.evaluate(&reference, &input, h).map_err(|e| {
             ModelError::error(format!(
                 "control law failed at t = {t} s: {e} (reference pose {:?})",
                 reference.pose.to_xyz_euler()
             ))
         })?;
-        if let Some(sim) = self.sim.as_mut() {
-            sim.law.settings = settings;
-            if commit {
-                sim.law.integral = integral;
-            }
+        if commit {
+            sim.law.integral = integral;
         }
         self.values.set_real6(vr::FORCE_1, out.force.as_slice());
         self.values
