@@ -27,6 +27,19 @@ pub enum MasterError {
         what: &'static str,
         source: Box<ImportError>,
     },
+    #[error(
+        "trial {trial}, t = {time} s: fmi2DoStep of FMU {fmu:?} was discarded{}{}: {source}",
+        last_successful_time.map(|t| format!(" (last successful time {t} s)")).unwrap_or_default(),
+        if *terminated { "; the FMU asks to terminate the simulation" } else { "" }
+    )]
+    Discard {
+        trial: usize,
+        time: f64,
+        fmu: String,
+        last_successful_time: Option<f64>,
+        terminated: bool,
+        source: Box<ImportError>,
+    },
     #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
     Setup {
         trial: usize,
@@ -386,14 +399,37 @@ impl<'s> Master<'s> {
                         })?;
                 }
                 let inst = &mut self.instances[k];
-                inst.do_step(t, h, true)
-                    .map_err(|source| MasterError::Call {
-                        trial,
-                        time: t,
-                        fmu: sc.fmus[k].name.clone(),
-                        what: "fmi2DoStep",
-                        source: Box::new(source),
-                    })?;
+                if let Err(source) = inst.do_step(t, h, true) {
+                    let fmu = sc.fmus[k].name.clone();
+                    let source = Box::new(source);
+                    // fmi2Discard: the FMU stopped early; say where, as far as it tells.
+                    return Err(
+                        if matches!(
+                            *source,
+                            ImportError::Call {
+                                status: fmi2::Status::Discard,
+                                ..
+                            }
+                        ) {
+                            MasterError::Discard {
+                                trial,
+                                time: t,
+                                fmu,
+                                last_successful_time: inst.last_successful_time().ok(),
+                                terminated: inst.is_terminated().unwrap_or(false),
+                                source,
+                            }
+                        } else {
+                            MasterError::Call {
+                                trial,
+                                time: t,
+                                fmu,
+                                what: "fmi2DoStep",
+                                source,
+                            }
+                        },
+                    );
+                }
                 inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
                     .map_err(|source| MasterError::Call {
                         trial,
