@@ -33,14 +33,6 @@ struct Sim {
     state: State,
 }
 
-/// Name of a value reference, for messages.
-fn name(vr: u32) -> &'static str {
-    md::VARIABLES
-        .iter()
-        .find(|v| v.value_reference == vr)
-        .map_or("?", |v| v.name)
-}
-
 impl CkcmPlant {
     /// Mechanism parameters from the parameter variables (names as in `ckcm::Params::set_field`).
     fn params(&self) -> Params {
@@ -117,11 +109,10 @@ impl Model for CkcmPlant {
     const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
 
     fn new() -> Self {
-        let mut values = Values::from_start(md::START);
-        for v in md::VARIABLES {
-            values.ensure(v.value_reference);
+        Self {
+            values: Values::for_variables(md::START, md::VARIABLES),
+            sim: None,
         }
-        Self { values, sim: None }
     }
 
     fn get_real(&self, vr: u32) -> f64 {
@@ -129,14 +120,7 @@ impl Model for CkcmPlant {
     }
 
     fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
-        if !value.is_finite() {
-            return Err(ModelError::error(format!(
-                "{} = {value} is not finite",
-                name(vr)
-            )));
-        }
-        self.values.set_real(vr, value);
-        Ok(())
+        self.values.set_finite_real(md::VARIABLES, vr, value)
     }
 
     fn get_integer(&self, vr: u32) -> i32 {

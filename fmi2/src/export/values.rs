@@ -4,7 +4,7 @@
 //! O(1) get/set with no hashing and lets a model be `Clone` for FMU-state snapshots.
 //! The arrays are allocated once per instance; nothing here allocates per step.
 
-use super::model::{ModelError, ModelResult, VarType};
+use super::model::{ModelError, ModelResult, VarSpec, VarType};
 
 /// Values of every Real, Integer/Enumeration and Boolean variable, by value reference.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -38,6 +38,37 @@ impl Values {
             }
         }
         v
+    }
+
+    /// Values at the start values, with room for every declared variable (outputs have no
+    /// start value). What an FMU's `Model::new` needs.
+    pub fn for_variables(start: &[(u32, VarType, f64)], variables: &[VarSpec]) -> Self {
+        let mut v = Self::from_start(start);
+        for var in variables {
+            v.ensure(var.value_reference);
+        }
+        v
+    }
+
+    /// Stores a Real, refusing NaN and infinities with an error naming the variable: no
+    /// model here has a use for them, and they would poison every later step.
+    pub fn set_finite_real(
+        &mut self,
+        variables: &[VarSpec],
+        vr: u32,
+        value: f64,
+    ) -> ModelResult<()> {
+        if !value.is_finite() {
+            let name = variables
+                .iter()
+                .find(|v| v.value_reference == vr && v.var_type == VarType::Real);
+            return Err(ModelError::error(format!(
+                "{} = {value} is not finite",
+                name.map_or("?", |v| v.name)
+            )));
+        }
+        self.set_real(vr, value);
+        Ok(())
     }
 
     /// Makes room for `vr` (outputs have no start value and may lie past the last one).
