@@ -11,14 +11,31 @@ fn main() {
     let steps = 15000;
     let mut mem = vec![Vector6::zeros(); steps];
     let mut next = vec![Vector6::zeros(); steps];
-    let reps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(10);
+    let reps: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10);
     let start = std::time::Instant::now();
     for _ in 0..reps {
         let mut ctl = Hlcs::new(nominal, ControlSettings::default());
         let mut integ = Integrator::default();
-        run_trial(&plant, &mut integ, &mut ctl, &traj, h, &mem, &mut next, |_, _, _| {}).unwrap();
+        run_trial(
+            &plant,
+            &mut integ,
+            &mut ctl,
+            &traj,
+            h,
+            &mem,
+            &mut next,
+            |_, _, _| {},
+        )
+        .unwrap();
         std::mem::swap(&mut mem, &mut next);
     }
     let per = start.elapsed().as_secs_f64() / reps as f64;
-    println!("{:.2} ms per 15 s trial ({:.0}x real time)", per * 1e3, 15.0 / per);
+    println!(
+        "{:.2} ms per 15 s trial ({:.0}x real time)",
+        per * 1e3,
+        15.0 / per
+    );
 }

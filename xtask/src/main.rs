@@ -4,8 +4,8 @@
 //!   `target/fmu/CkcmPlant.fmu` and `target/fmu/HlcsController.fmu`.
 //! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
-//! - `cargo xtask test`: package the FMUs, run every Rust test, create the Python virtualenv
-//!   (pinned fmpy, numpy, pytest) and run the fmpy tests.
+//! - `cargo xtask test`: check formatting and clippy, package the FMUs, run every Rust
+//!   test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the fmpy tests.
 
 mod docs;
 mod package;
@@ -47,6 +47,19 @@ fn main() -> Result<()> {
                 .args(&args[1..]))?;
         }
         Some("test") => {
+            // House rules first: formatting and clippy with warnings as errors.
+            run(Command::new(cargo())
+                .current_dir(&root)
+                .args(["fmt", "--all", "--", "--check"]))?;
+            run(Command::new(cargo()).current_dir(&root).args([
+                "clippy",
+                "--workspace",
+                "--all-targets",
+                "--quiet",
+                "--",
+                "-D",
+                "warnings",
+            ]))?;
             package::build_fmus(&root)?;
             run(Command::new(cargo())
                 .current_dir(&root)
