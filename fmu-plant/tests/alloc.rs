@@ -2,63 +2,14 @@
 //! allocation, with either integrator: checked with a counting global allocator while the
 //! model is driven through the safe `fmi2::export::Model` trait.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
 use ckcm_plant::md::VARIABLES;
+use fmi2::alloc_count::{CountingAllocator, allocations};
 use fmi2::export::Model;
 
-/// Forwards to the system allocator and counts allocations of the calling thread.
-///
-/// The counter is per thread because the test harness runs tests on parallel threads; a
-/// global counter would charge one test with another's allocations.
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
-// `GlobalAlloc` contract; the only extra work is bumping a const-initialised thread-local
-// `Cell`, which never allocates (so the allocator cannot recurse into itself) and cannot
-// unwind. `try_with` skips the count once the thread's locals are destroyed.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: the caller's contract for `layout` is passed on unchanged.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: the caller's contract for `layout` is passed on unchanged.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-fn count() {
-    let _ = ALLOCATIONS.try_with(|a| a.set(a.get() + 1));
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// Value reference of a variable by name.
 fn vr(name: &str) -> u32 {

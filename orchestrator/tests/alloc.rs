@@ -10,90 +10,15 @@
 
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::backtrace::Backtrace;
-use std::cell::Cell;
 use std::path::Path;
 
+use fmi2::alloc_count::{CountingAllocator, counted};
 use fmi2::import::Fmu;
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 
-/// Forwards to the system allocator and counts allocations of the calling thread.
-///
-/// The counter is per thread because the test harness runs tests on parallel threads; a
-/// global counter would charge one test with another's allocations.
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-    /// Print a backtrace for every counted allocation.
-    static TRACE: Cell<bool> = const { Cell::new(false) };
-    /// Set while a backtrace is being printed: its own allocations are neither counted nor
-    /// traced, so the allocator never recurses into itself.
-    static IN_HOOK: Cell<bool> = const { Cell::new(false) };
-}
-
-fn count() {
-    let _ = IN_HOOK.try_with(|hook| {
-        if hook.get() {
-            return;
-        }
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        if TRACE.with(Cell::get) {
-            hook.set(true);
-            eprintln!("allocation:\n{}", Backtrace::force_capture());
-            hook.set(false);
-        }
-    });
-}
-
-// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
-// `GlobalAlloc` contract. The extra work touches const-initialised thread-local `Cell`s,
-// which never allocate; the optional backtrace does allocate, but `IN_HOOK` makes those
-// nested calls go straight to `System`, so there is no unbounded recursion. `try_with`
-// skips the count once the thread's locals are destroyed.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: the caller's contract for `layout` is passed on unchanged.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: the caller's contract for `layout` is passed on unchanged.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
-
-/// Counts the allocations of `f` on this thread, tracing them if `CKCM_ALLOC_BACKTRACE` is set.
-fn counted<T>(f: impl FnOnce() -> T) -> (usize, T) {
-    let trace = std::env::var_os("CKCM_ALLOC_BACKTRACE").is_some();
-    let before = allocations();
-    TRACE.with(|t| t.set(trace));
-    let out = f();
-    TRACE.with(|t| t.set(false));
-    (allocations() - before, out)
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// A 2 s line under HLCS with recording at every sample and the metrics ports, with the
 /// packaged FMUs.

@@ -1,0 +1,87 @@
+//! A counting global allocator for the zero-allocation tests of every crate.
+//!
+//! FMI calls sit in 1 ms loops, so "no heap allocation per step" is a tested property. The
+//! allocator lives here because implementing `GlobalAlloc` is `unsafe`, and `unsafe` stays
+//! in this crate; a test installs it with
+//! `#[global_allocator] static A: fmi2::alloc_count::CountingAllocator = fmi2::alloc_count::CountingAllocator;`
+//! and measures with [`counted`].
+//!
+//! Counts are per thread, because the test harness runs tests on parallel threads and a
+//! global counter would charge one test with another's allocations. With the environment
+//! variable `CKCM_ALLOC_BACKTRACE` set, every counted allocation prints a backtrace.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::backtrace::Backtrace;
+use std::cell::Cell;
+
+/// Forwards to the system allocator and counts the calling thread's allocations.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CountingAllocator;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+    /// Print a backtrace for every counted allocation.
+    static TRACE: Cell<bool> = const { Cell::new(false) };
+    /// Set while a backtrace is printed: its own allocations are neither counted nor
+    /// traced, so the allocator never recurses into itself.
+    static IN_HOOK: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    let _ = IN_HOOK.try_with(|hook| {
+        if hook.get() {
+            return;
+        }
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        if TRACE.with(Cell::get) {
+            hook.set(true);
+            eprintln!("allocation:\n{}", Backtrace::force_capture());
+            hook.set(false);
+        }
+    });
+}
+
+// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
+// `GlobalAlloc` contract. The extra work touches const-initialised thread-local `Cell`s,
+// which never allocate; the optional backtrace does allocate, but `IN_HOOK` sends those
+// nested calls straight to `System`, so there is no recursion. `try_with` skips the count
+// once the thread's locals are destroyed, and nothing here can unwind.
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: the caller's contract for `layout` is passed on unchanged.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: `ptr` came from `System` with `layout`; the caller's contract is passed on.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+/// Allocations counted on this thread so far (0 unless [`CountingAllocator`] is installed).
+pub fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+/// Runs `f` and returns how many allocations it made on this thread, with its result.
+pub fn counted<T>(f: impl FnOnce() -> T) -> (usize, T) {
+    let trace = std::env::var_os("CKCM_ALLOC_BACKTRACE").is_some();
+    let before = allocations();
+    TRACE.with(|t| t.set(trace));
+    let out = f();
+    TRACE.with(|t| t.set(false));
+    (allocations() - before, out)
+}
