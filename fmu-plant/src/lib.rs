@@ -3,6 +3,8 @@
 //! Actuator forces come in and are held over each communication step; the rigid-body
 //! model of `ckcm` is integrated over the step (RK4 with substeps, or adaptive
 //! Dormand–Prince); leg lengths, leg rates and the platform pose go out.
+// Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
+#![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State};

@@ -1,4 +1,5 @@
 //! `orchestrator`: run scenarios, simulate single FMUs, inspect FMUs, reproduce the paper.
+#![deny(unsafe_code)]
 
 mod args;
 mod commands;

@@ -6,6 +6,7 @@
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
 //! - `cargo xtask test`: check formatting and clippy, package the FMUs, run every Rust
 //!   test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the fmpy tests.
+#![deny(unsafe_code)]
 
 mod docs;
 mod package;
