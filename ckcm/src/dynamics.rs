@@ -6,7 +6,7 @@
 //! Newton–Euler at zero acceleration, so the two are derived independently and the tests
 //! can check one against the other.
 
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix6, Vector3, Vector6};
 
 use crate::kinematics::{LEGS, LegGeometry, Mechanism, Pose, skew};
 
@@ -73,33 +73,47 @@ impl Mechanism {
     /// each leg adds c G_iᵀG_i + (a − c) j_i j_iᵀ, with
     /// G_iᵀG_i = [[I, −[r]×], [[r]×, |r|² I − r rᵀ]]: rank-one updates instead of 3×3 products.
     pub fn mass_matrix(&self, legs: &LegGeometry) -> Matrix6<f64> {
-        let rot = &legs.rot_world;
-        let inertia_world = rot * self.inertia_platform * rot.transpose();
-        let mut m = Matrix6::zeros();
+        // Upper triangle on plain arrays (M is symmetric), mirrored at the end: half the
+        // products of full 6×6 rank-one updates and no 3×3 temporaries.
+        let mut u = [[0.0_f64; 6]; 6];
         let mut c_sum = self.params.platform.mass;
         let mut c_r = Vector3::zeros();
-        let mut rr = inertia_world;
         for i in 0..LEGS {
             let (a, c) = self.leg_masses(legs.length[i]);
             let r = legs.r_world[i];
             let n = legs.n_world[i];
             let mr = r.cross(&n);
-            let j = Vector6::new(n.x, n.y, n.z, mr.x, mr.y, mr.z);
+            let j = [n.x, n.y, n.z, mr.x, mr.y, mr.z];
+            let w = a - c;
+            for p in 0..6 {
+                let wj = w * j[p];
+                for q in p..6 {
+                    u[p][q] += wj * j[q];
+                }
+            }
             c_sum += c;
             c_r += r * c;
-            rr += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * c;
-            m.ger(a - c, &j, &j, 1.0);
+            // c (|r|² I − r rᵀ), upper triangle of the rotational block.
+            let rr = r.norm_squared();
+            for p in 0..3 {
+                for q in p..3 {
+                    u[3 + p][3 + q] += c * (if p == q { rr } else { 0.0 } - r[p] * r[q]);
+                }
+            }
         }
-        let tr = -skew(&c_r);
+        let rot = &legs.rot_world;
+        let inertia_world = rot * self.inertia_platform * rot.transpose();
+        let mut m = Matrix6::from_fn(|p, q| if p <= q { u[p][q] } else { u[q][p] });
         for k in 0..3 {
             m[(k, k)] += c_sum;
         }
+        let tr = -skew(&c_r);
         let mut top_right = m.fixed_view_mut::<3, 3>(0, 3);
         top_right += tr;
         let mut bottom_left = m.fixed_view_mut::<3, 3>(3, 0);
         bottom_left += tr.transpose();
         let mut bottom_right = m.fixed_view_mut::<3, 3>(3, 3);
-        bottom_right += rr;
+        bottom_right += inertia_world;
         m
     }
 
@@ -119,24 +133,29 @@ impl Mechanism {
         let n = legs.n_world[i];
         let l = legs.length[i];
         let ld = n.dot(sd);
-        // Leg angular velocity and acceleration (no spin about n).
+        // Leg angular velocity ω_L = n × ṡ / l and acceleration α_L (no spin about n).
+        let n_cross_sdd = n.cross(sdd);
         let w_leg = n.cross(sd) / l;
-        let a_leg = (n.cross(sdd) - w_leg * (2.0 * ld)) / l;
-        let nd = (sd - n * ld) / l;
-        let ndd = a_leg.cross(&n) + w_leg.cross(&nd);
-        let acc_cyl = ndd * p.cylinder_com;
-        let acc_rod = sdd - ndd * p.rod_com;
+        let a_leg = (n_cross_sdd - w_leg * (2.0 * ld)) / l;
+        let nd_sq = (sd.norm_squared() - ld * ld) / (l * l);
+        // Both bodies' centre-of-mass accelerations involve n̈ = α_L × n + ω_L × ṅ, and since
+        // α_L, ṅ and ω_L are all ⟂ n: n × n̈ = α_L and n·n̈ = −|ṅ|².
+        // Cylinder: a_c = d_c n̈. Rod: a_r = s̈ − d_r n̈.
         let lever_rod = l - p.rod_com;
-        // Moment balance of the whole leg about the base joint gives n × F (F: platform on rod).
-        let n_cross_f = (n.cross(&acc_cyl) * (p.cylinder_mass * p.cylinder_com)
-            + n.cross(&acc_rod) * (p.rod_mass * lever_rod)
-            + a_leg * (p.cylinder_inertia + p.rod_inertia)
-            + n.cross(&Vector3::z())
+        // Moment balance of the whole leg about the base joint gives n × F (F: platform on
+        // rod): l n × F = m_c d_c n × a_c + m_r (l − d_r) n × a_r + (I_c + I_r) α_L + gravity.
+        let n_cross_f = (a_leg
+            * (p.cylinder_mass * p.cylinder_com * p.cylinder_com
+                + p.cylinder_inertia
+                + p.rod_inertia
+                - p.rod_mass * lever_rod * p.rod_com)
+            + n_cross_sdd * (p.rod_mass * lever_rod)
+            + Vector3::new(n.y, -n.x, 0.0)
                 * (g * (p.cylinder_mass * p.cylinder_com + p.rod_mass * lever_rod)))
             / l;
         let f_perp = n_cross_f.cross(&n);
-        // Axial balance of the rod.
-        let f_axial = p.rod_mass * (acc_rod.dot(&n) + g * n.z) - tau;
+        // Axial balance of the rod: m_r a_r·n = F·n + τ − m_r g n_z.
+        let f_axial = p.rod_mass * (n.dot(sdd) + p.rod_com * nd_sq + g * n.z) - tau;
         -(f_perp + n * f_axial)
     }
 
@@ -281,6 +300,8 @@ impl Mechanism {
 #[allow(clippy::needless_range_loop)]
 fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
     let mut l = [[0.0_f64; 6]; 6];
+    // Reciprocals of the diagonal: six divisions instead of one per element.
+    let mut inv = [0.0_f64; 6];
     for j in 0..6 {
         let mut d = m[(j, j)];
         for k in 0..j {
@@ -291,12 +312,13 @@ fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
         }
         let d = d.sqrt();
         l[j][j] = d;
+        inv[j] = 1.0 / d;
         for i in j + 1..6 {
             let mut s = m[(i, j)];
             for k in 0..j {
                 s -= l[i][k] * l[j][k];
             }
-            l[i][j] = s / d;
+            l[i][j] = s * inv[j];
         }
     }
     let mut y = [0.0_f64; 6];
@@ -305,7 +327,7 @@ fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
         for k in 0..i {
             s -= l[i][k] * y[k];
         }
-        y[i] = s / l[i][i];
+        y[i] = s * inv[i];
     }
     let mut x = [0.0_f64; 6];
     for i in (0..6).rev() {
@@ -313,7 +335,7 @@ fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
         for k in i + 1..6 {
             s -= l[k][i] * x[k];
         }
-        x[i] = s / l[i][i];
+        x[i] = s * inv[i];
     }
     Some(Vector6::from(x))
 }
