@@ -122,7 +122,7 @@ fn floor_trial(c: &mut Criterion) {
             H,
             read,
             write,
-            |_, _, _| {},
+            |_, _, _, _| {},
         )
         .expect("the line trial runs")
     };

@@ -27,7 +27,7 @@ fn main() {
             h,
             &mem,
             &mut next,
-            |_, _, _| {},
+            |_, _, _, _| {},
         )
         .unwrap();
         std::mem::swap(&mut mem, &mut next);

@@ -38,7 +38,7 @@ fn main() {
                     h,
                     &mem,
                     &mut next,
-                    |_, _, o| {
+                    |_, _, _, o| {
                         maxe = maxe.max(o.error.amax());
                     },
                 );

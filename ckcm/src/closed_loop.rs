@@ -22,7 +22,7 @@ pub enum TrialError {
 /// One trial of `steps` samples of period `h` from rest at the trajectory's start.
 ///
 /// `memory` holds u_k for every sample (read), `memory_next` receives u_{k+1} (written);
-/// `observe(n, state_before_step, output)` sees each sample.
+/// `observe(n, state_before_step, measurements, output)` sees each sample.
 #[allow(clippy::too_many_arguments)]
 pub fn run_trial(
     plant: &Mechanism,
@@ -32,7 +32,7 @@ pub fn run_trial(
     h: f64,
     memory: &[Vector6<f64>],
     memory_next: &mut [Vector6<f64>],
-    mut observe: impl FnMut(usize, &State, &ControlOutput),
+    mut observe: impl FnMut(usize, &State, &ControlInput, &ControlOutput),
 ) -> Result<State, TrialError> {
     let mut state = State::at_rest(trajectory.sample(0.0).pose);
     controller.reset();
@@ -50,7 +50,7 @@ pub fn run_trial(
             .step(&reference, &input, h)
             .map_err(|source| TrialError::Controller { t, source })?;
         memory_next[n] = out.memory_next;
-        observe(n, &state, &out);
+        observe(n, &state, &input, &out);
         integrator
             .advance(plant, &mut state, &out.force, h)
             .map_err(|source| TrialError::Plant { t, source })?;

@@ -233,9 +233,14 @@ fn line_trial(c: &mut Criterion) {
     let nominal = Mechanism::new(Params::nominal()).expect("nominal parameters are valid");
     let trajectory = Trajectory::line(plant.params.geometry.home_height);
     let steps = scenario.steps;
-    let floor = |read: &[Vector6<f64>], write: &mut [Vector6<f64>]| {
+    // The floor produces what the orchestrator trial records at every sample: leg errors,
+    // forces, next memory, measured lengths and the pose (Euler angles), into storage
+    // allocated once, so the ratio measures the FMI layer and nothing else.
+    let mut floor_record: Vec<[f64; 30]> = Vec::with_capacity(steps);
+    let mut floor = |read: &[Vector6<f64>], write: &mut [Vector6<f64>]| {
         let mut controller = Hlcs::new(nominal, ControlSettings::default());
         let mut integrator = Integrator::default();
+        floor_record.clear();
         run_trial(
             &plant,
             &mut integrator,
@@ -244,7 +249,15 @@ fn line_trial(c: &mut Criterion) {
             H,
             read,
             write,
-            |_, _, _| {},
+            |_, state, input, out| {
+                let mut row = [0.0; 30];
+                row[0..6].copy_from_slice(out.error.as_slice());
+                row[6..12].copy_from_slice(out.force.as_slice());
+                row[12..18].copy_from_slice(out.memory_next.as_slice());
+                row[18..24].copy_from_slice(input.length.as_slice());
+                row[24..30].copy_from_slice(&state.pose.to_xyz_euler());
+                floor_record.push(row);
+            },
         )
         .expect("the line trial runs")
     };
