@@ -107,7 +107,7 @@ fn every_forbidden_call_is_an_error_and_every_allowed_one_passes_the_state_check
                 let after = if state == FmiState::Fatal {
                     FmiState::Fatal
                 } else {
-                    FmiState::Error
+                    FmiState::Terminated
                 };
                 assert_eq!(fmu.state(), Some(after), "{} in {state}", f.name());
             }
@@ -194,7 +194,7 @@ fn null_arrays_with_nvr_are_errors_and_nvr_zero_is_ok() {
         "{:?}",
         fmu.log.messages()
     );
-    assert_eq!(fmu.state(), Some(FmiState::Error));
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
 
     let fmu = Fmu::initialized("nulls2");
     // SAFETY: NULL value with nvr = 1 must be refused before any write.
@@ -437,7 +437,7 @@ fn panicking_model_is_fatal_and_then_only_free_works() {
 }
 
 #[test]
-fn model_error_moves_to_error_where_reset_recovers() {
+fn model_error_moves_to_terminated_where_reset_recovers() {
     let fmu = Fmu::initialized("err");
     assert_eq!(
         fmu.set_integer(&[vr::FAIL_MODE], &[fail::ERROR]),
@@ -445,7 +445,7 @@ fn model_error_moves_to_error_where_reset_recovers() {
     );
     assert_eq!(fmu.do_step(0.0, 0.01), Status::Error);
     assert!(fmu.log.contains("fmi2DoStep: fail_mode asks for an error"));
-    assert_eq!(fmu.state(), Some(FmiState::Error));
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
     // Diagnostics still readable, stepping not.
     assert_eq!(fmu.get_real(&[vr::X]).0, Status::Ok);
     assert_eq!(fmu.do_step(0.0, 0.01), Status::Error);

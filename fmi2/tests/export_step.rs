@@ -14,7 +14,7 @@ fn step_size_must_be_positive_and_finite() {
         assert!(fmu.log.contains(&format!(
             "fmi2DoStep: communicationStepSize {h} must be finite and > 0"
         )));
-        assert_eq!(fmu.state(), Some(FmiState::Error));
+        assert_eq!(fmu.state(), Some(FmiState::Terminated));
     }
 }
 

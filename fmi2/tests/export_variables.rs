@@ -19,7 +19,7 @@ fn unknown_value_reference_is_an_error() {
         "{:?}",
         fmu.log.messages()
     );
-    assert_eq!(fmu.state(), Some(FmiState::Error));
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
 
     let fmu = Fmu::initialized("unknown-set");
     assert_eq!(fmu.set_integer(&[1234], &[1]), Status::Error);
@@ -152,7 +152,7 @@ fn set_rules_after_initialization() {
         "{:?}",
         fmu.log.messages()
     );
-    assert_eq!(fmu.state(), Some(FmiState::Error));
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
     let fmu = Fmu::initialized("after-int");
     assert_eq!(fmu.set_integer(&[vr::SUBSTEPS], &[2]), Status::Error);
     assert!(
@@ -253,7 +253,7 @@ fn initialization_errors_are_returned() {
         fmu.log
             .contains("fmi2ExitInitializationMode: mass must be > 0, got -1")
     );
-    assert_eq!(fmu.state(), Some(FmiState::Error));
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
 
     let fmu = Fmu::new("bad-mass-get");
     assert_eq!(fmu.setup(0.0, None), Status::Ok);

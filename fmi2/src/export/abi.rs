@@ -10,18 +10,16 @@
 //!    every length before building a slice (`nvr = 0` with NULL arrays is legal), then
 //!    calls the model;
 //! 4. a failure is logged and escalated: fmi2Error moves the instance to
-//!    [`FmiState::Error`], fmi2Fatal or a panic to [`FmiState::Fatal`].
+//!    [`FmiState::Terminated`], fmi2Fatal or a panic to [`FmiState::Fatal`].
 //!
 //! # Status escalation
-//! Reference-FMUs moves an instance to its terminated state on *any* fmi2Error (an
-//! illegal call and a bad argument included) and to its end state on fmi2Fatal. FMI 2.0
-//! §2.1.3 says after fmi2Error "the simulation cannot be continued with this FMU
-//! instance" except by fmi2SetFMUstate to an earlier state, fmi2Reset or
-//! fmi2FreeInstance, and its CS state table has a separate *error* state for that. This
-//! glue follows both: every fmi2Error an instance function returns moves the instance to
-//! `Error`, where only diagnostics (get functions), the FMU-state functions, fmi2Reset,
-//! fmi2SetDebugLogging and fmi2FreeInstance are allowed; fmi2Fatal moves it to `Fatal`,
-//! where only fmi2FreeInstance is. fmi2Discard from fmi2DoStep moves it to `StepFailed`.
+//! As Reference-FMUs does, every fmi2Error an instance function returns (an illegal call
+//! and a bad argument included) moves the instance to `Terminated`: FMI 2.0 §2.1.3 says
+//! that after fmi2Error "the simulation cannot be continued with this FMU instance" except
+//! by fmi2SetFMUstate to an earlier state, fmi2Reset or fmi2FreeInstance, and in
+//! `Terminated` exactly those, the get functions (for diagnostics) and fmi2SetDebugLogging
+//! remain allowed. fmi2Fatal moves it to `Fatal`, where only fmi2FreeInstance is.
+//! fmi2Discard from fmi2DoStep moves it to `StepFailed`.
 //!
 //! # Safety contract of every wrapper
 //! The arguments are those of the FMI 2.0 C function: the component is NULL or a pointer

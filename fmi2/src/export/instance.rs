@@ -372,13 +372,14 @@ impl<M: Model> Instance<M> {
         self.log(Status::Ok, function, text);
     }
 
-    /// Applies the status escalation of a failed call: fmi2Error moves the instance to
-    /// Error (FMI 2.0 §2.1.3: the simulation cannot continue except by restoring an FMU
-    /// state, resetting or freeing); fmi2Fatal to Fatal, which is never left.
+    /// Applies the status escalation of a failed call, as Reference-FMUs does: fmi2Error
+    /// moves the instance to Terminated (FMI 2.0 §2.1.3: the simulation cannot continue
+    /// except by restoring an FMU state, resetting or freeing); fmi2Fatal to Fatal, which is
+    /// never left.
     pub(crate) fn escalate(&mut self, status: Status) {
         match status {
             Status::Error if self.glue.state != FmiState::Fatal => {
-                self.glue.state = FmiState::Error;
+                self.glue.state = FmiState::Terminated;
             }
             Status::Fatal => self.glue.state = FmiState::Fatal,
             _ => {}

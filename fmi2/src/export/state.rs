@@ -26,22 +26,19 @@ pub enum FmiState {
     StepCanceled,
     /// After fmi2Terminate.
     Terminated,
-    /// A call returned fmi2Error: only diagnostics, FMU-state restore, reset and free remain.
-    Error,
     /// A call returned fmi2Fatal (e.g. a panic in the model): only fmi2FreeInstance remains.
     Fatal,
 }
 
 impl FmiState {
     /// Every state, in declaration order (for exhaustive tests).
-    pub const ALL: [FmiState; 8] = [
+    pub const ALL: [FmiState; 7] = [
         FmiState::Instantiated,
         FmiState::InitializationMode,
         FmiState::StepComplete,
         FmiState::StepFailed,
         FmiState::StepCanceled,
         FmiState::Terminated,
-        FmiState::Error,
         FmiState::Fatal,
     ];
 
@@ -54,7 +51,6 @@ impl FmiState {
             FmiState::StepFailed => "StepFailed",
             FmiState::StepCanceled => "StepCanceled",
             FmiState::Terminated => "Terminated",
-            FmiState::Error => "Error",
             FmiState::Fatal => "Fatal",
         }
     }
@@ -86,14 +82,12 @@ const STEP_COMPLETE: u16 = FmiState::StepComplete.bit();
 const STEP_FAILED: u16 = FmiState::StepFailed.bit();
 const STEP_CANCELED: u16 = FmiState::StepCanceled.bit();
 const TERMINATED: u16 = FmiState::Terminated.bit();
-const ERROR: u16 = FmiState::Error.bit();
 const FATAL: u16 = FmiState::Fatal.bit();
 
 /// Every state in which the instance still exists and is not fatally broken.
-const ALIVE: u16 =
-    INSTANTIATED | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
-/// Where values can be read (in `Error` for diagnostics only, FMI 2.0 footnote 7).
-const READABLE: u16 = INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
+const ALIVE: u16 = INSTANTIATED | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
+/// Where values can be read (after an error too, for diagnostics: FMI 2.0 footnote 7).
+const READABLE: u16 = INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED;
 /// Where some variables can be set (which ones is checked per variable).
 const SETTABLE: u16 = INSTANTIATED | INIT | STEP_COMPLETE;
 /// Where the fmi2Get*Status functions answer.
@@ -266,7 +260,7 @@ impl Function {
             | Function::SerializeFmuState
             | Function::DeSerializeFmuState => ALIVE,
             Function::GetRealOutputDerivatives => {
-                STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR
+                STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED
             }
             Function::DoStep => STEP_COMPLETE,
             // Only in StepInProgress, which a synchronous FMU never enters.

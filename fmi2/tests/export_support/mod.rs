@@ -823,7 +823,6 @@ impl Fmu {
         };
         match state {
             FmiState::StepFailed => fail_then_step(fail::DISCARD, Status::Discard),
-            FmiState::Error => fail_then_step(fail::ERROR, Status::Error),
             FmiState::Fatal => fail_then_step(fail::PANIC, Status::Fatal),
             FmiState::Terminated => assert_eq!(fmu.terminate(), Status::Ok),
             FmiState::StepCanceled => {
@@ -879,7 +878,6 @@ pub fn expected_allowed(f: Function, s: FmiState) -> bool {
                 | S::StepFailed
                 | S::StepCanceled
                 | S::Terminated
-                | S::Error
         ),
         Function::SetReal
         | Function::SetInteger
@@ -891,7 +889,7 @@ pub fn expected_allowed(f: Function, s: FmiState) -> bool {
         Function::GetRealOutputDerivatives => {
             matches!(
                 s,
-                S::StepComplete | S::StepFailed | S::StepCanceled | S::Terminated | S::Error
+                S::StepComplete | S::StepFailed | S::StepCanceled | S::Terminated
             )
         }
         Function::DoStep => s == S::StepComplete,
