@@ -49,6 +49,15 @@ pub enum MasterError {
     },
 }
 
+/// Log categories, in the naming Reference-FMUs and our FMUs use, that report failed or
+/// questionable calls and nothing else.
+const STATUS_CATEGORIES: [&str; 4] = [
+    "logStatusWarning",
+    "logStatusDiscard",
+    "logStatusError",
+    "logStatusFatal",
+];
+
 /// Values of one trial kept at full rate for the summary metrics.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrialSignals {
@@ -119,12 +128,28 @@ impl<'s> Master<'s> {
     pub fn new(scenario: &'s Scenario, fmus: Vec<Fmu>, logging: bool) -> Result<Self, MasterError> {
         let mut instances = Vec::with_capacity(fmus.len());
         for (spec, fmu) in scenario.fmus.iter().zip(&fmus) {
-            let inst = fmu.instantiate(&spec.name, logging).map_err(|source| {
-                MasterError::Instantiate {
-                    fmu: spec.name.clone(),
-                    source: Box::new(source),
+            let instantiate_err = |source| MasterError::Instantiate {
+                fmu: spec.name.clone(),
+                source: Box::new(source),
+            };
+            let mut inst = fmu
+                .instantiate(&spec.name, logging)
+                .map_err(instantiate_err)?;
+            if !logging {
+                // Without debug logging, still hear why a call fails: enable the status
+                // categories the FMU declares (they log only when something goes wrong).
+                let status: Vec<&str> = fmu
+                    .model_description()
+                    .log_categories
+                    .iter()
+                    .map(|c| c.name.as_str())
+                    .filter(|n| STATUS_CATEGORIES.contains(n))
+                    .collect();
+                if !status.is_empty() {
+                    inst.set_debug_logging(true, &status)
+                        .map_err(instantiate_err)?;
                 }
-            })?;
+            }
             instances.push(inst);
         }
         // Every output anyone needs gets a bus slot, grouped per FMU.

@@ -46,7 +46,7 @@ fn foreign_fmu_info_lists_identity_flags_and_every_variable() {
         "Default experiment: start 0 s, stop 2 s, step 0.0078125 s, tolerance not given",
         "logStatusError    Calls that return fmi2Error",
         "Method: 1 = rk4, 2 = symplectic_euler",
-        "Variables (14)",
+        "Variables (15)",
     ] {
         assert!(text.contains(expected), "missing {expected:?} in\n{text}");
     }

@@ -1,0 +1,103 @@
+//! `run` when an FMU refuses a step with fmi2Discard: the campaign stops with a message
+//! naming the trial, the time, the FMU and its last successful time, exits non-zero, and
+//! keeps the trials that completed before.
+
+mod common;
+
+use common::{foreign_fmu, orchestrator};
+
+fn scenario(dir: &std::path::Path, discard: bool) -> std::path::PathBuf {
+    let fmu = foreign_fmu(dir);
+    let path = dir.join(format!("limit-{discard}.toml"));
+    // A constant drive pushes x past the 0.1 m end stop within the first second.
+    std::fs::write(
+        &path,
+        format!(
+            r#"step_size = 0.01
+stop_time = 2.0
+trials = 1
+[[fmu]]
+name = "osc"
+path = "{}"
+[fmu.parameters]
+drive = 50.0
+x_limit = 0.1
+discard_at_limit = {discard}
+[record]
+variables = ["osc.x"]
+"#,
+            fmu.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn discard_stops_the_run_naming_time_and_last_successful_time() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = orchestrator()
+        .arg("run")
+        .arg(scenario(tmp.path(), true))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("trial 0, t = "), "{err}");
+    assert!(
+        err.contains("fmi2DoStep of FMU \"osc\" was discarded"),
+        "{err}"
+    );
+    assert!(err.contains("last successful time"), "{err}");
+    assert!(err.contains("beyond the end stop"), "{err}");
+    // The time reported is the step that was refused, and the FMU says it got no further.
+    let t: f64 = err
+        .split("t = ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let last: f64 = err
+        .split("last successful time ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(t > 0.0 && t < 2.0, "{t}");
+    // The FMU's time is cp + h of its last step, the master's t_0 + n·h: equal up to rounding.
+    assert!(
+        (last - t).abs() < 1e-9,
+        "the refused step must leave the FMU at its start: {last} vs {t}"
+    );
+    assert!(
+        !out.exists(),
+        "a campaign that failed in trial 0 wrote {}",
+        out.display()
+    );
+}
+
+#[test]
+fn error_at_the_end_stop_is_reported_as_a_failed_call() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = orchestrator()
+        .arg("run")
+        .arg(scenario(tmp.path(), false))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("fmi2DoStep of FMU \"osc\" failed"), "{err}");
+    assert!(!err.contains("discarded"), "{err}");
+}
