@@ -110,13 +110,14 @@ impl HlcsController {
         })
     }
 
-    fn reference(&self, sim: &Sim, t: f64) -> Reference {
+    /// The reference at `t`: the trajectory's, or the external inputs'.
+    fn reference(values: &Values, sim: &Sim, t: f64) -> Reference {
         match &sim.trajectory {
             Some(traj) => traj.sample(t - sim.start_time),
             None => Reference {
-                pose: Pose::from_xyz_euler(&self.values.real6(vr::POSE_REF_1)),
-                twist: Vector6::from_row_slice(&self.values.real6(vr::TWIST_REF_1)),
-                accel: Vector6::from_row_slice(&self.values.real6(vr::ACCEL_REF_1)),
+                pose: Pose::from_xyz_euler(&values.real6(vr::POSE_REF_1)),
+                twist: Vector6::from_row_slice(&values.real6(vr::TWIST_REF_1)),
+                accel: Vector6::from_row_slice(&values.real6(vr::ACCEL_REF_1)),
             },
         }
     }
@@ -134,12 +135,11 @@ impl HlcsController {
     fn sample(&mut self, t: f64, h: f64, commit: bool) -> ModelResult<()> {
         let settings = self.settings();
         let input = self.input();
-        let sim = self
-            .sim
-            .as_ref()
+        let Self { values, sim } = self;
+        let sim = sim
+            .as_mut()
             .ok_or_else(|| ModelError::error("not initialized"))?;
-        let reference = self.reference(sim, t);
-        let sim = self.sim.as_mut().expect("checked above");
+        let reference = Self::reference(values, sim, t);
         // Gains are tunable between steps.
         sim.law.settings = settings;
         let (out, integral) = sim.law.evaluate(&reference, &input, h).map_err(|e| {
@@ -151,12 +151,10 @@ impl HlcsController {
         if commit {
             sim.law.integral = integral;
         }
-        self.values.set_real6(vr::FORCE_1, out.force.as_slice());
-        self.values
-            .set_real6(vr::MEMORY_NEXT_1, out.memory_next.as_slice());
-        self.values
-            .set_real6(vr::LENGTH_REF_1, out.length_ref.as_slice());
-        self.values.set_real6(vr::ERROR_1, out.error.as_slice());
+        values.set_real6(vr::FORCE_1, out.force.as_slice());
+        values.set_real6(vr::MEMORY_NEXT_1, out.memory_next.as_slice());
+        values.set_real6(vr::LENGTH_REF_1, out.length_ref.as_slice());
+        values.set_real6(vr::ERROR_1, out.error.as_slice());
         Ok(())
     }
 }
