@@ -111,4 +111,8 @@ pub struct PaperArgs {
     /// Continue an interrupted study.
     #[arg(long)]
     pub resume: bool,
+    /// Campaigns to run at the same time (default: the available cores); results do not
+    /// depend on it.
+    #[arg(long)]
+    pub jobs: Option<usize>,
 }

@@ -4,6 +4,8 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 use ckcm::TrajectoryKind;
 use fmi2::import::Fmu;
@@ -73,6 +75,8 @@ pub struct PaperOptions {
     pub circle_duration: f64,
     pub resume: bool,
     pub progress: bool,
+    /// Campaigns run at the same time (threads); results do not depend on it.
+    pub jobs: usize,
     /// λ-norm weight ρ, 1/s.
     pub rho: f64,
 }
@@ -199,6 +203,46 @@ trajectory = {{ kind = "{traj}", duration = {duration:?}, home_height = 0.5 }}
     )
 }
 
+/// One campaign of the study.
+fn run_case(
+    opts: &PaperOptions,
+    kind: TrajectoryKind,
+    scheme: Scheme,
+    show_progress: bool,
+) -> Result<CaseResult, PaperError> {
+    let dir = opts.out_dir.join(traj_slug(kind)).join(scheme.slug());
+    let text = scenario_toml(opts, kind, scheme);
+    let source = dir.join("scenario.toml");
+    let mut fmus = Vec::new();
+    let scenario = Scenario::parse(&text, &source, |p| {
+        let fmu = Fmu::open(p).map_err(|e| e.to_string())?;
+        let md = fmu.model_description().clone();
+        fmus.push(fmu);
+        Ok(md)
+    })?;
+    if opts.progress && show_progress {
+        eprintln!("{} / {}", traj_slug(kind), scheme.label());
+    }
+    let summaries = run_campaign(
+        &scenario,
+        &text,
+        fmus,
+        &CampaignOptions {
+            out_dir: dir.clone(),
+            resume: opts.resume,
+            fmu_logging: false,
+            progress: opts.progress && show_progress,
+            stop_after: None,
+        },
+    )?;
+    Ok(CaseResult {
+        trajectory: kind,
+        scheme,
+        dir,
+        summaries,
+    })
+}
+
 /// Runs all six cases, then writes figures, tables and the report.
 pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     if opts.trials < 5 {
@@ -222,41 +266,49 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
             message: e.to_string(),
         })?;
     }
-    let mut results = Vec::new();
-    for kind in [TrajectoryKind::Line, TrajectoryKind::Circle] {
-        for scheme in Scheme::ALL {
-            let dir = opts.out_dir.join(traj_slug(kind)).join(scheme.slug());
-            let text = scenario_toml(opts, kind, scheme);
-            let source = dir.join("scenario.toml");
-            let mut fmus = Vec::new();
-            let scenario = Scenario::parse(&text, &source, |p| {
-                let fmu = Fmu::open(p).map_err(|e| e.to_string())?;
-                let md = fmu.model_description().clone();
-                fmus.push(fmu);
-                Ok(md)
-            })?;
-            if opts.progress {
-                eprintln!("{} / {}", traj_slug(kind), scheme.label());
-            }
-            let summaries = run_campaign(
-                &scenario,
-                &text,
-                fmus,
-                &CampaignOptions {
-                    out_dir: dir.clone(),
-                    resume: opts.resume,
-                    fmu_logging: false,
-                    progress: opts.progress,
-                    stop_after: None,
-                },
-            )?;
-            results.push(CaseResult {
-                trajectory: kind,
-                scheme,
-                dir,
-                summaries,
+    // The six campaigns are independent: run them on `jobs` threads. Each opens its own
+    // FMUs, so no FMI instance ever crosses a thread, and results do not depend on `jobs`.
+    let cases: Vec<(TrajectoryKind, Scheme)> = [TrajectoryKind::Line, TrajectoryKind::Circle]
+        .into_iter()
+        .flat_map(|k| Scheme::ALL.map(|s| (k, s)))
+        .collect();
+    let jobs = opts.jobs.clamp(1, cases.len());
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<Result<CaseResult, PaperError>>>> =
+        cases.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&(kind, scheme)) = cases.get(i) else {
+                        break;
+                    };
+                    let result = run_case(opts, kind, scheme, jobs == 1);
+                    if opts.progress && jobs > 1 && result.is_ok() {
+                        eprintln!("done: {} / {}", traj_slug(kind), scheme.label());
+                    }
+                    let failed = result.is_err();
+                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(result);
+                    if failed {
+                        // Take no further cases; the ones running finish their trial loop.
+                        next.store(cases.len(), Ordering::Relaxed);
+                        break;
+                    }
+                }
             });
         }
+    });
+    let mut results = Vec::new();
+    for slot in slots {
+        match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
+            Some(Ok(r)) => results.push(r),
+            Some(Err(e)) => return Err(e),
+            None => {}
+        }
+    }
+    if results.len() != cases.len() {
+        return Err(PaperError::Invalid("a campaign did not run".into()));
     }
     write_figures(opts, &results)?;
     write_convergence_table(opts, &results)?;

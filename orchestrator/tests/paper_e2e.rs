@@ -138,6 +138,36 @@ fn paper_study_writes_every_file_and_learning_works() {
     for claim in ["**1.", "**2.", "**3.", "**4.", "Known effect"] {
         assert!(report.contains(claim), "report lacks {claim}");
     }
+    // Campaigns run in parallel by default; one at a time gives the very same files.
+    let serial = tempfile::tempdir().unwrap();
+    let status = orchestrator()
+        .args([
+            "paper",
+            "--trials",
+            "5",
+            "--line-duration",
+            "4",
+            "--circle-duration",
+            "4",
+            "--jobs",
+            "1",
+            "--fmu-dir",
+        ])
+        .arg(fmu_dir())
+        .arg("--out")
+        .arg(serial.path())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let (a, b) = (tree(root), tree(serial.path()));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (k, v) in &a {
+        assert!(
+            v == &b[k],
+            "{} differs between --jobs 1 and parallel campaigns",
+            k.display()
+        );
+    }
 }
 
 fn line_scenario(dir: &Path, trials: usize) -> PathBuf {

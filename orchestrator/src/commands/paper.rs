@@ -17,6 +17,9 @@ pub fn run(args: PaperArgs) -> Result<()> {
         resume: args.resume,
         progress: true,
         rho: DEFAULT_RHO,
+        jobs: args
+            .jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
     };
     let start = std::time::Instant::now();
     run_paper(&opts)?;
