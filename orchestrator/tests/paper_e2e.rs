@@ -268,7 +268,7 @@ fn interrupted_and_resumed_campaign_equals_uninterrupted() {
 #[test]
 fn killed_and_resumed_campaign_equals_uninterrupted() {
     let tmp = tempfile::tempdir().unwrap();
-    let trials = 25;
+    let trials = 60;
     let scenario = line_scenario(tmp.path(), trials);
     let whole = tmp.path().join("whole");
     let killed = tmp.path().join("killed");
