@@ -52,14 +52,6 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-fn lower(debug: impl std::fmt::Debug) -> String {
-    let s = format!("{debug:?}");
-    let mut c = s.chars();
-    c.next()
-        .map(|f| f.to_lowercase().collect::<String>() + c.as_str())
-        .unwrap_or_default()
-}
-
 /// The whole page.
 pub fn index_html(md: &ModelDescription) -> String {
     let id = md
@@ -162,8 +154,8 @@ pub fn index_html(md: &ModelDescription) -> String {
             "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&v.name),
             v.value_reference,
-            lower(v.causality),
-            lower(v.variability),
+            v.causality.as_str(),
+            v.variability.as_str(),
             esc(&ty),
             esc(&unit),
             esc(&start),

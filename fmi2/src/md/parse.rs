@@ -766,6 +766,44 @@ fn convert_unknowns(
         .collect()
 }
 
+impl Causality {
+    /// The model description's spelling, e.g. `calculatedParameter`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Local => "local",
+            Causality::Independent => "independent",
+        }
+    }
+}
+
+impl Variability {
+    /// The model description's spelling, e.g. `tunable`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Variability::Constant => "constant",
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
+impl Initial {
+    /// The model description's spelling, e.g. `calculated`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Initial::Exact => "exact",
+            Initial::Approx => "approx",
+            Initial::Calculated => "calculated",
+        }
+    }
+}
+
 impl FromStr for Causality {
     type Err = ParseEnumError;
     fn from_str(s: &str) -> Result<Self, ParseEnumError> {

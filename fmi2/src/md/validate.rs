@@ -294,35 +294,6 @@ fn check_uniqueness(md: &ModelDescription, r: &mut Report) {
     }
 }
 
-fn causality_name(c: Causality) -> &'static str {
-    match c {
-        Causality::Parameter => "parameter",
-        Causality::CalculatedParameter => "calculatedParameter",
-        Causality::Input => "input",
-        Causality::Output => "output",
-        Causality::Local => "local",
-        Causality::Independent => "independent",
-    }
-}
-
-fn variability_name(v: Variability) -> &'static str {
-    match v {
-        Variability::Constant => "constant",
-        Variability::Fixed => "fixed",
-        Variability::Tunable => "tunable",
-        Variability::Discrete => "discrete",
-        Variability::Continuous => "continuous",
-    }
-}
-
-fn initial_name(i: Initial) -> &'static str {
-    match i {
-        Initial::Exact => "exact",
-        Initial::Approx => "approx",
-        Initial::Calculated => "calculated",
-    }
-}
-
 fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
     let (c, var) = (v.causality, v.variability);
     let is_real = v.var_type() == VarType::Real;
@@ -346,11 +317,7 @@ fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
             };
             r.var(
                 v,
-                format!(
-                    "{} {why} (variability is {})",
-                    causality_name(c),
-                    variability_name(var)
-                ),
+                format!("{} {why} (variability is {})", c.as_str(), var.as_str()),
             );
         }
         Some(rule) => {
@@ -361,7 +328,7 @@ fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
                     } else {
                         rule.allowed
                             .iter()
-                            .map(|&a| initial_name(a))
+                            .map(|&a| a.as_str())
                             .collect::<Vec<_>>()
                             .join(" or ")
                     };
@@ -369,9 +336,9 @@ fn check_variable(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
                     v,
                     format!(
                         "initial={} is not allowed for causality={} variability={} (allowed: {allowed})",
-                        initial_name(i),
-                        causality_name(c),
-                        variability_name(var)
+                        i.as_str(),
+                        c.as_str(),
+                        var.as_str()
                     ),
                 );
                 }
@@ -395,10 +362,7 @@ fn check_start(v: &ScalarVariable, r: &mut Report) {
             r.var(v, "the independent variable must not have a start value")
         }
         (_, Some(i @ (Initial::Exact | Initial::Approx))) if !has_start => {
-            r.var(
-                v,
-                format!("initial={} requires a start value", initial_name(i)),
-            );
+            r.var(v, format!("initial={} requires a start value", i.as_str()));
         }
         (_, Some(Initial::Calculated)) if has_start => {
             r.var(

@@ -7,7 +7,6 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use fmi2::export::{Causality, Variability};
 use fmi2::import::Fmu;
 use fmi2::md::{
     Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind,
@@ -257,45 +256,13 @@ fn variable_row(md: &ModelDescription, v: &ScalarVariable) -> Vec<String> {
         v.name.clone(),
         v.value_reference.to_string(),
         type_name,
-        causality_name(v.causality).to_owned(),
-        variability_name(v.variability).to_owned(),
-        v.initial.map_or("", initial_name).to_owned(),
+        v.causality.as_str().to_owned(),
+        v.variability.as_str().to_owned(),
+        v.initial.map_or("", Initial::as_str).to_owned(),
         start.unwrap_or_default(),
         unit,
         v.description.clone().unwrap_or_default(),
     ]
-}
-
-/// The model description's spelling.
-fn causality_name(c: Causality) -> &'static str {
-    match c {
-        Causality::Parameter => "parameter",
-        Causality::CalculatedParameter => "calculatedParameter",
-        Causality::Input => "input",
-        Causality::Output => "output",
-        Causality::Local => "local",
-        Causality::Independent => "independent",
-    }
-}
-
-/// The model description's spelling.
-fn variability_name(v: Variability) -> &'static str {
-    match v {
-        Variability::Constant => "constant",
-        Variability::Fixed => "fixed",
-        Variability::Tunable => "tunable",
-        Variability::Discrete => "discrete",
-        Variability::Continuous => "continuous",
-    }
-}
-
-/// The model description's spelling.
-fn initial_name(i: Initial) -> &'static str {
-    match i {
-        Initial::Exact => "exact",
-        Initial::Approx => "approx",
-        Initial::Calculated => "calculated",
-    }
 }
 
 /// `key   value` lines with the values aligned.
