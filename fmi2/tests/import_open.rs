@@ -181,7 +181,7 @@ fn binary_that_is_not_a_library_fails_to_load() {
     let fake = dir.path().join("fake.so");
     std::fs::write(&fake, b"not an ELF file").unwrap();
     let path = dir.path().join("Fake.fmu");
-    write_fmu(&path, VALID, Some(&fake), &[("data.txt", b"x")]).unwrap();
+    write_fmu(&path, VALID, Some(&fake), &[("resources/data.txt", b"x")]).unwrap();
     let err = open_err(&path);
     assert!(matches!(err, ImportError::Load { .. }), "{err:?}");
     assert!(

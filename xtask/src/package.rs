@@ -2,12 +2,10 @@
 //! documentation/index.html.
 
 use std::fs;
-use std::io::Write;
 use std::path::Path;
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
-use zip::write::SimpleFileOptions;
 
 use crate::{FMUS, cargo, docs, run};
 
@@ -53,30 +51,16 @@ pub fn package_fmu(xml: &Path, lib: &Path, fmu: &Path) -> Result<()> {
     if !problems.is_empty() {
         bail!("{} has problems: {problems:?}", xml.display());
     }
-    let id = &md
-        .co_simulation
-        .as_ref()
-        .context("no CoSimulation element")?
-        .model_identifier;
-    let binary = fs::read(lib).with_context(|| format!("cannot read {}", lib.display()))?;
+    // Written beside the target and renamed, so a failed build never leaves a torn .fmu.
     let tmp = fmu.with_extension("fmu.tmp");
-    {
-        let file =
-            fs::File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut zip = zip::ZipWriter::new(file);
-        let opts =
-            SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
-        zip.start_file("modelDescription.xml", opts)?;
-        zip.write_all(md_text.as_bytes())?;
-        zip.start_file(
-            format!("binaries/linux64/{id}.so"),
-            opts.unix_permissions(0o755),
-        )?;
-        zip.write_all(&binary)?;
-        zip.start_file("documentation/index.html", opts)?;
-        zip.write_all(docs::index_html(&md).as_bytes())?;
-        zip.finish()?.sync_all()?;
-    }
+    let docs = docs::index_html(&md);
+    fmi2::import::write_fmu(
+        &tmp,
+        &md_text,
+        Some(lib),
+        &[("documentation/index.html", docs.as_bytes())],
+    )
+    .with_context(|| format!("cannot write {}", tmp.display()))?;
     fs::rename(&tmp, fmu).with_context(|| format!("cannot move {} into place", fmu.display()))?;
     Ok(())
 }

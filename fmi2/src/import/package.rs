@@ -11,14 +11,15 @@ use crate::md::ModelDescription;
 
 /// Writes an FMU archive to `out`: `modelDescription.xml` from `model_description`,
 /// the `cdylib` (if given) as `binaries/<platform>/<modelIdentifier>.<ext>` with the
-/// identifier taken from the description, and each `(path, bytes)` under `resources/`.
+/// identifier taken from the description, and each `(path, bytes)` of `files` at that path
+/// inside the archive (e.g. `resources/table.csv`, `documentation/index.html`).
 ///
 /// Passing `None` for the binary (or any XML text) lets tests build broken archives.
 pub fn write_fmu(
     out: &Path,
     model_description: &str,
     cdylib: Option<&Path>,
-    resources: &[(&str, &[u8])],
+    files: &[(&str, &[u8])],
 ) -> Result<(), ImportError> {
     let io = |source| ImportError::Io {
         path: out.to_path_buf(),
@@ -57,9 +58,8 @@ pub fn write_fmu(
             .map_err(zip_err)?;
         zip.write_all(&bytes).map_err(io)?;
     }
-    for (name, bytes) in resources {
-        zip.start_file(format!("resources/{name}"), options)
-            .map_err(zip_err)?;
+    for (name, bytes) in files {
+        zip.start_file(*name, options).map_err(zip_err)?;
         zip.write_all(bytes).map_err(io)?;
     }
     zip.finish().map_err(zip_err)?;

@@ -37,7 +37,7 @@ pub fn dummy_fmu_with(dir: &Path, model_description: &str) -> PathBuf {
         &path,
         model_description,
         Some(dummy_library()),
-        &[("table.csv", b"t,x\n0,1\n")],
+        &[("resources/table.csv", b"t,x\n0,1\n")],
     )
     .unwrap();
     path
