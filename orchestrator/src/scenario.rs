@@ -345,12 +345,6 @@ impl Scenario {
             let from = resolve(&c.from, "memory from")?;
             let to = resolve(&c.to, "memory to")?;
             check_link(&cx, &mds, c, &from, &to, "memory channel")?;
-            if from.var_type != VarType::Real {
-                return cx.err(
-                    c.from.span(),
-                    format!("memory channel {:?} must be Real", c.from.get_ref()),
-                );
-            }
             memory.push(Link { from, to });
         }
         // An input fed twice would silently depend on the order of the entries.
@@ -560,12 +554,7 @@ fn check_link(
             ),
         );
     }
-    let compatible = from.var_type == to.var_type
-        || matches!(
-            (from.var_type, to.var_type),
-            (VarType::Integer, VarType::Enumeration) | (VarType::Enumeration, VarType::Integer)
-        );
-    if !compatible {
+    if from.var_type != to.var_type {
         return cx.err(
             raw.to.span(),
             format!(
@@ -574,6 +563,18 @@ fn check_link(
                 raw.to.get_ref(),
                 from.var_type,
                 to.var_type
+            ),
+        );
+    }
+    // The master moves values through one bus of Reals (fmi2GetReal/fmi2SetReal).
+    if from.var_type != VarType::Real {
+        return cx.err(
+            raw.from.span(),
+            format!(
+                "{what} {:?} → {:?}: only Real variables can be coupled, these are {:?}",
+                raw.from.get_ref(),
+                raw.to.get_ref(),
+                from.var_type
             ),
         );
     }
@@ -761,4 +762,51 @@ fn parameter_settings(
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A minimal model with Real and Integer outputs and inputs.
+    const MD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="M" guid="{1}">
+  <CoSimulation modelIdentifier="M"/>
+  <ModelVariables>
+    <ScalarVariable name="yr" valueReference="1" causality="output"><Real/></ScalarVariable>
+    <ScalarVariable name="ur" valueReference="2" causality="input"><Real start="0"/></ScalarVariable>
+    <ScalarVariable name="yi" valueReference="1" causality="output" variability="discrete"><Integer/></ScalarVariable>
+    <ScalarVariable name="ui" valueReference="2" causality="input" variability="discrete"><Integer start="0"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs><Unknown index="1"/><Unknown index="3"/></Outputs>
+  </ModelStructure>
+</fmiModelDescription>"#;
+
+    fn parse(link: &str) -> Result<Scenario, ScenarioError> {
+        let text = format!(
+            "step_size = 0.1\nstop_time = 1.0\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n[[fmu]]\nname = \"b\"\npath = \"b.fmu\"\n{link}"
+        );
+        Scenario::parse(&text, Path::new("s.toml"), |_| {
+            ModelDescription::parse(MD).map_err(|e| e.to_string())
+        })
+    }
+
+    #[test]
+    fn couples_reals_and_refuses_other_types_with_the_line() {
+        assert!(parse("[[connection]]\nfrom = \"a.yr\"\nto = \"b.ur\"\n").is_ok());
+        let err = parse("[[connection]]\nfrom = \"a.yi\"\nto = \"b.ui\"\n").unwrap_err();
+        assert_eq!(err.line, Some(10), "{err}");
+        assert!(
+            err.message.contains("only Real variables can be coupled"),
+            "{err}"
+        );
+        let err = parse("[[memory]]\nfrom = \"a.yi\"\nto = \"a.ui\"\n").unwrap_err();
+        assert!(
+            err.message.contains("only Real variables can be coupled"),
+            "{err}"
+        );
+        let err = parse("[[connection]]\nfrom = \"a.yr\"\nto = \"b.ui\"\n").unwrap_err();
+        assert!(err.message.contains("types differ"), "{err}");
+    }
 }
