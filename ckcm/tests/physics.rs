@@ -449,10 +449,9 @@ fn rk4_and_dormand_prince_agree_on_the_circle() {
         dp.advance(&m, &mut b, &tau, h).unwrap();
         worst = worst.max((a.pose.p_world - b.pose.p_world).norm());
     }
-    // Open loop, yet it follows the circle for a while: the feedforward is meaningful.
-    let far = traj.sample(1.0).pose.p_world;
-    assert!(
-        (a.pose.p_world - m.home().p_world).norm() > 0.01 || (far - m.home().p_world).norm() < 0.01
-    );
+    // The comparison covers real motion: open loop, the feedforward carries the platform
+    // well away from home along the circle.
+    let travelled = (a.pose.p_world - m.home().p_world).norm();
+    assert!(travelled > 0.05, "the platform moved only {travelled} m");
     assert!(worst < 1e-8, "RK4 vs DP5: {worst:e} m");
 }

@@ -81,16 +81,28 @@ fn paper_study_writes_every_file_and_learning_works() {
         assert!(root.join(f).is_file(), "{f}");
     }
     for t in ["line", "circle"] {
-        for fig in [
-            format!("{t}_pid_leg_errors.svg"),
-            format!("{t}_pd_ilc_leg_errors.svg"),
-            format!("{t}_hlcs_leg_errors.svg"),
-            format!("{t}_path.svg"),
+        for (fig, title) in [
+            (
+                format!("{t}_pid_leg_errors.svg"),
+                format!("{t}: leg errors under PID"),
+            ),
+            (
+                format!("{t}_pd_ilc_leg_errors.svg"),
+                format!("{t}: leg errors under PD-type ILC"),
+            ),
+            (
+                format!("{t}_hlcs_leg_errors.svg"),
+                format!("{t}: leg errors under HLCS"),
+            ),
+            (
+                format!("{t}_path.svg"),
+                format!("{t}: desired vs actual path"),
+            ),
         ] {
             let svg = std::fs::read_to_string(root.join("figures").join(&fig)).unwrap();
             assert!(
-                svg.starts_with("<svg") && svg.contains("leg") || svg.contains("path"),
-                "{fig}"
+                svg.starts_with("<svg") && svg.contains(&title),
+                "{fig} lacks {title:?}"
             );
         }
         for s in ["pid", "pd_ilc", "hlcs"] {
