@@ -284,7 +284,7 @@ impl<'s> Master<'s> {
         &self.fmus
     }
 
-    /// Memory channels as (names of the producing outputs, read buffer `[sample][element]`).
+    /// Names of the outputs that feed the memory channels, channel by channel.
     pub fn memory_names(&self) -> Vec<String> {
         self.scenario
             .memory

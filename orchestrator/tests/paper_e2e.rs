@@ -45,6 +45,18 @@ fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     out
 }
 
+/// The same file names with the same bytes.
+fn assert_same_files(a: &BTreeMap<PathBuf, Vec<u8>>, b: &BTreeMap<PathBuf, Vec<u8>>, when: &str) {
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "file lists differ {when}"
+    );
+    for (k, v) in a {
+        assert!(v == &b[k], "{} differs {when}", k.display());
+    }
+}
+
 /// (trial, overall max) of each row of a summary.csv.
 fn max_errors(summary: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(summary).unwrap();
@@ -171,15 +183,11 @@ fn paper_study_writes_every_file_and_learning_works() {
         .status()
         .unwrap();
     assert!(status.success());
-    let (a, b) = (tree(root), tree(serial.path()));
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (k, v) in &a {
-        assert!(
-            v == &b[k],
-            "{} differs between --jobs 1 and parallel campaigns",
-            k.display()
-        );
-    }
+    assert_same_files(
+        &tree(root),
+        &tree(serial.path()),
+        "between --jobs 1 and parallel campaigns",
+    );
 }
 
 fn line_scenario(dir: &Path, trials: usize) -> PathBuf {
@@ -267,11 +275,7 @@ fn interrupted_and_resumed_campaign_equals_uninterrupted() {
             .unwrap()
             .success()
     );
-    let (a, b) = (tree(&whole), tree(&parts));
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (k, v) in &a {
-        assert!(v == &b[k], "{} differs after resume", k.display());
-    }
+    assert_same_files(&tree(&whole), &tree(&parts), "after resume");
     // The memory really carried over: trial 1 learned from trial 0.
     let e = max_errors(&parts.join("summary.csv"));
     assert!(e[1] < 0.5 * e[0], "{e:?}");
@@ -336,16 +340,12 @@ fn killed_and_resumed_campaign_equals_uninterrupted() {
             .unwrap()
             .success()
     );
-    let (a, b) = (tree(&whole), tree(&killed));
     // A kill can leave a temporary file of an atomic write behind; results are never torn.
-    let b: BTreeMap<_, _> = b
+    let killed: BTreeMap<_, _> = tree(&killed)
         .into_iter()
         .filter(|(k, _)| !k.to_string_lossy().contains(".tmp-"))
         .collect();
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (k, v) in &a {
-        assert!(v == &b[k], "{} differs after kill and resume", k.display());
-    }
+    assert_same_files(&tree(&whole), &killed, "after kill and resume");
 }
 
 #[test]
