@@ -81,7 +81,7 @@ growth() {
     cat "$work/length.md"
 
     echo
-    # Learning off: with it on, the unfiltered ILC diverges before trial 100 (DESIGN.md §7) and the
+    # Learning off: with it on, the unfiltered ILC diverges before trial 100 (docs/model.md §7) and the
     # run stops. Every trial still makes the same FMI calls and arithmetic.
     echo "## Number of trials (circle 5 s, PID only)"
     for k in 1 10 100; do scenario "circle-x$k" circle 5.0 "$k" false; done

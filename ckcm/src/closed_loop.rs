@@ -1,5 +1,5 @@
 //! The coupled plant + controller loop without any FMI layer, in the Gauss–Seidel order of
-//! DESIGN.md §6. It is the floor the co-simulation is benchmarked against, and lets tests
+//! docs/model.md §6. It is the floor the co-simulation is benchmarked against, and lets tests
 //! study learning without building FMUs.
 
 use nalgebra::Vector6;

@@ -1,4 +1,4 @@
-//! The hybrid learning control scheme (HLCS), sampled (DESIGN.md §4, §6).
+//! The hybrid learning control scheme (HLCS), sampled (docs/model.md §4, §6).
 //!
 //! At sample t_n with measured lengths l and rates l̇ and the stored learning input u_k(t_n):
 //! e = l_d − l, ė = l̇_d − l̇, I_n = I_{n−1} + e h (paper eq. 10),

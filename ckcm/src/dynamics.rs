@@ -1,4 +1,4 @@
-//! Rigid-body dynamics in task space: M(x) ν̇ + b(x, ν) = Jᵀ(τ + friction) (DESIGN.md §3).
+//! Rigid-body dynamics in task space: M(x) ν̇ + b(x, ν) = Jᵀ(τ + friction) (docs/model.md §3).
 //!
 //! Generalised coordinates are the platform pose with the world twist ν = (v, ω). Each leg is
 //! a cylinder hinged at the base and a rod ball-jointed to the platform, neither spinning
@@ -224,7 +224,7 @@ impl Mechanism {
     }
 
     /// Inverse dynamics τ = J⁻ᵀ (M ν̇ + b): the actuator forces that produce `accel`,
-    /// ignoring friction (the feedforward of DESIGN.md §4 uses a frictionless nominal model).
+    /// ignoring friction (the feedforward of docs/model.md §4 uses a frictionless nominal model).
     pub fn inverse_dynamics(
         &self,
         pose: &Pose,

@@ -139,7 +139,7 @@ pub struct Mechanism {
 }
 
 impl Mechanism {
-    /// Validates `params` and places the joints (DESIGN.md §3, the Simscape Stewart layout):
+    /// Validates `params` and places the joints (docs/model.md §3, the Simscape Stewart layout):
     /// base joint angles 120°k ∓ θB, platform joint angles 120°k − 60° + θA and 120°k + 60° − θA.
     pub fn new(params: Params) -> Result<Self, ParamError> {
         params.validate()?;

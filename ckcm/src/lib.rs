@@ -2,7 +2,7 @@
 //! parameters, kinematics, rigid-body dynamics with two-body legs, reference trajectories,
 //! integrators, error metrics and the HLCS control law.
 //!
-//! Conventions (DESIGN.md §3): {B} at the base centroid with z up, {A} at the platform joint
+//! Conventions (docs/model.md §3): {B} at the base centroid with z up, {A} at the platform joint
 //! centroid; orientation is a unit quaternion inside, Z-Y-X Euler angles only at interfaces;
 //! velocities are the world twist ν = (v, ω).
 #![forbid(unsafe_code)]

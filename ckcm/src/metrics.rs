@@ -1,4 +1,4 @@
-//! Error metrics of one trial (DESIGN.md §7): max, RMS and λ-norm per leg and overall,
+//! Error metrics of one trial (docs/model.md §7): max, RMS and λ-norm per leg and overall,
 //! and the Cartesian path error.
 
 /// Max |e|, RMS e and λ-norm sup_t e^(−ρt)|e(t)| of one signal (or of all legs together).

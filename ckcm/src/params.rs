@@ -1,7 +1,7 @@
 //! Mechanism parameters, one struct per concern.
 //!
 //! Values marked "Table 1" are the paper's; the others are this project's own choices
-//! (DESIGN.md §3) and documented as such.
+//! (docs/model.md §3) and documented as such.
 
 use nalgebra::Vector3;
 
@@ -142,7 +142,7 @@ impl Default for Params {
 }
 
 impl Params {
-    /// The controller's nominal model (DESIGN.md §4): the plant's defaults without the rod
+    /// The controller's nominal model (docs/model.md §4): the plant's defaults without the rod
     /// and without friction. The mismatch is the repeating disturbance learning removes.
     pub fn nominal() -> Self {
         Self {
@@ -235,7 +235,7 @@ impl Params {
 }
 
 impl Params {
-    /// Sets the field with the DESIGN.md / FMU variable name `name` (e.g. `rod_mass`,
+    /// Sets the field with the docs/model.md / FMU variable name `name` (e.g. `rod_mass`,
     /// `platform_inertia[2]`, angles in rad). Returns false for a name that is not a
     /// mechanism parameter, so callers can map a whole variable table without a field list.
     pub fn set_field(&mut self, name: &str, value: f64) -> bool {

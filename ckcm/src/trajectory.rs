@@ -1,4 +1,4 @@
-//! Reference trajectories (DESIGN.md §3): C², rest-to-rest, orientation held at zero,
+//! Reference trajectories (docs/model.md §3): C², rest-to-rest, orientation held at zero,
 //! with analytic velocity and acceleration.
 
 use nalgebra::{UnitQuaternion, Vector3, Vector6};

@@ -2,7 +2,7 @@
 //!
 //! Every check compares two independently derived quantities: energy vs work, closed-form
 //! mass matrix vs Newton–Euler residual, Jacobian vs finite differences, FK vs IK, RK4 vs
-//! Dormand–Prince, and the DESIGN.md reference figures.
+//! Dormand–Prince, and the reference figures of docs/model.md.
 
 use ckcm::nalgebra::{UnitQuaternion, Vector3, Vector6};
 use ckcm::{

@@ -1,6 +1,6 @@
 //! HlcsController: the hybrid learning control scheme as an FMI 2.0 co-simulation FMU.
 //!
-//! Sampled semantics (DESIGN.md §6): doStep(t_n, h) reads the inputs set at t_n, evaluates
+//! Sampled semantics (docs/model.md §6): doStep(t_n, h) reads the inputs set at t_n, evaluates
 //! the law of `ckcm::control` and holds the outputs over [t_n, t_n + h]. Before the first
 //! step (after initialization) the outputs preview the law at the start time with the
 //! integral of past samples only (none yet).

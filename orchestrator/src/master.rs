@@ -1,5 +1,5 @@
 //! The co-simulation master: Gauss–Seidel stepping at t_n = t_0 + n·h, repeated trials
-//! from the same initial state, and double-buffered iteration memory (DESIGN.md §6).
+//! from the same initial state, and double-buffered iteration memory (docs/model.md §6).
 //!
 //! All buffers are sized once per campaign; the per-step loop only copies between
 //! preallocated slices and calls the FMUs.

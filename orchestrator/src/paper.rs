@@ -1,4 +1,4 @@
-//! The paper's simulation study (DESIGN.md §7): line (15 s) and circle (5 s), each under
+//! The paper's simulation study (docs/model.md §7): line (15 s) and circle (5 s), each under
 //! PID feedback only, PID + PD-type ILC (Ψ = 0) and PID + PID-type ILC (HLCS), with the
 //! Table 1 gains, run through the FMUs by the same campaign code as `orchestrator run`.
 
@@ -611,7 +611,7 @@ fn report_markdown(opts: &PaperOptions, results: &[CaseResult]) -> String {
     r
 }
 
-/// The paper's four claims (DESIGN.md §7) next to our figures, with a plain verdict.
+/// The paper's four claims (docs/model.md §7) next to our figures, with a plain verdict.
 fn claims(w: &mut String, results: &[CaseResult]) {
     let max = |kind, scheme, k: usize| case(results, kind, scheme).summaries[k].legs.overall.max;
     let line = TrajectoryKind::Line;
@@ -685,7 +685,7 @@ fn claims(w: &mut String, results: &[CaseResult]) {
          errors after t = 0.6 s stay within [{}, {}] mm, against the paper's −2.2 mm; even PID alone never exceeds \
          {} mm here. **Not confirmed as a number**: our steady HLCS error is {:.0}× smaller than the paper's. The paper's \
          figure comes from its own Simscape model and unmodelled dynamics, which its text does not specify; with the \
-         model mismatch of DESIGN.md (rods and friction unknown to the controller) the Table 1 gains track far more tightly. \
+         model mismatch of docs/model.md (rods and friction unknown to the controller) the Table 1 gains track far more tightly. \
          What does hold is that the error has settled by 0.6 s: from then on it stays within the range above.\n",
         steady.map_or("?".into(), |s| mm(s.0)),
         steady.map_or("?".into(), |s| mm(s.1)),

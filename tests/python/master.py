@@ -1,7 +1,7 @@
 """A reference co-simulation master for CkcmPlant and HlcsController, built on fmpy.
 
 This is the wiring a reader follows to couple our two FMUs in any FMI 2.0 master. It
-implements the semantics of DESIGN.md §6 and nothing more:
+implements the semantics of docs/model.md §6 and nothing more:
 
 * one macro step of h = 1 ms, with t_n = t0 + n·h computed from n (never accumulated);
 * Gauss–Seidel order with no added delay: controller first (it sees the plant outputs

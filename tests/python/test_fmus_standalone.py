@@ -13,10 +13,10 @@ from fmpy import simulate_fmu
 
 from master import legs
 
-#: Static force per leg that holds the plant at home (DESIGN.md §3).
+#: Static force per leg that holds the plant at home (docs/model.md §3).
 HOLD_FORCE = 28.5315
 #: Nominal-model (no rod) static force per leg at home at rest: the controller's
-#: feedforward τ_a there (DESIGN.md §3, 18.0647 N).
+#: feedforward τ_a there (docs/model.md §3, 18.0647 N).
 TAU_A_HOME = 18.0646612
 #: Every leg's length at the home pose (m).
 HOME_LENGTH = 0.5667144462950593
