@@ -1,0 +1,423 @@
+//! Frequency-domain convergence analysis of the learning update (docs/convergence.md,
+//! docs/model.md §9).
+//!
+//! The mechanism is linearised along the reference: at each pose the leg-space inertia
+//! M_leg = J⁻ᵀ M J⁻¹ (the plant's full model, legs included) is split into its eigenmodes.
+//! Gains are scalar per leg and the viscous friction is b·I, so in the eigenbasis of M_leg
+//! every mode is an independent mass m_i with friction b under the same sampled PID loop.
+//! Per mode, with z = e^{jωh}, the trial-to-trial map of the memory at frequency ω is
+//!
+//!   u_{k+1} = Q·Q̄ [α − g z^δ L(z) P(z)] u_k + (terms that do not depend on u_k),
+//!
+//! so learning contracts where |Q(e^{jωh})|²·|α − g z^δ L P| < 1 (Bristow, Tharayil & Alleyne
+//! 2006, eq. 23; Longman 2000). P is the sampled error sensitivity of the PID loop from the
+//! learning input to the error (zero-order hold on the force, exact discretisation of the
+//! mode), L the learning law Φ e + Γ ė + Ψ I of `control.rs` in its discrete form, Q the
+//! Butterworth low-pass applied forward and backward (zero phase, squared magnitude).
+
+use nalgebra::{Complex, Matrix6};
+
+use crate::control::Gains;
+use crate::dynamics::DynamicsError;
+use crate::kinematics::{Mechanism, Pose};
+use crate::trajectory::Trajectory;
+
+/// Number of leg-space modes.
+pub const MODES: usize = 6;
+
+/// A rejected analysis setting, naming it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConvergenceError {
+    #[error("{name} = {value} is invalid: {reason}")]
+    Invalid {
+        name: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+    #[error("at t = {time} s of the reference: {source}")]
+    Dynamics {
+        time: f64,
+        #[source]
+        source: DynamicsError,
+    },
+}
+
+fn check(name: &'static str, value: f64, ok: bool, reason: &'static str) -> Result<(), ConvergenceError> {
+    if value.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(ConvergenceError::Invalid {
+            name,
+            value,
+            reason,
+        })
+    }
+}
+
+/// The zero-phase Butterworth low-pass Q of the memory update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Butterworth {
+    /// Order N_Q of one pass (the forward-backward filter has twice this order), ≥ 1.
+    pub order: u32,
+    /// Cutoff f_c of one pass, Hz (−3 dB per pass, −6 dB forward-backward); 0 < f_c < 1/(2h).
+    pub cutoff: f64,
+}
+
+impl Butterworth {
+    /// |Q(e^{jωh})|² of one pass at frequency `f` (Hz) with sample period `h` (s): the
+    /// forward-backward filter's whole gain. For the bilinear-transform design (scipy's
+    /// `butter`, prewarped at f_c) |Q|² = 1 / (1 + (tan(πfh) / tan(πf_c h))^{2N}).
+    pub fn gain_sq(&self, f: f64, h: f64) -> f64 {
+        let r = (std::f64::consts::PI * f * h).tan() / (std::f64::consts::PI * self.cutoff * h).tan();
+        1.0 / (1.0 + r.abs().powi(2 * self.order as i32))
+    }
+}
+
+/// The between-trial memory update u_{k+1} = Q[α u_k + g shift_δ(Δ_k)].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Update {
+    /// Q; `None` is no filter.
+    pub filter: Option<Butterworth>,
+    /// Lead δ, samples. Default 0.
+    pub lead: usize,
+    /// Forgetting factor α. Default 1.
+    pub forgetting: f64,
+    /// Gain g on the increment. Default 1.
+    pub gain: f64,
+}
+
+impl Default for Update {
+    /// The paper's update: no filter, no lead, α = g = 1.
+    fn default() -> Self {
+        Self {
+            filter: None,
+            lead: 0,
+            forgetting: 1.0,
+            gain: 1.0,
+        }
+    }
+}
+
+impl Update {
+    /// Checks the settings for sample period `h`.
+    pub fn validate(&self, h: f64) -> Result<(), ConvergenceError> {
+        check("h", h, h > 0.0, "the sample period must be positive")?;
+        check("forgetting", self.forgetting, true, "must be finite")?;
+        check("gain", self.gain, true, "must be finite")?;
+        if let Some(q) = self.filter {
+            check(
+                "order",
+                f64::from(q.order),
+                q.order >= 1,
+                "the filter order must be at least 1",
+            )?;
+            check(
+                "cutoff",
+                q.cutoff,
+                q.cutoff > 0.0 && q.cutoff < 0.5 / h,
+                "the cutoff must lie between 0 and the Nyquist frequency 1/(2h)",
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// One leg-space mode under the sampled PID loop: mass m with viscous friction b, force held
+/// over each sample (zero-order hold), controller of `control.rs` at period h.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeLoop {
+    /// Modal mass m, kg.
+    pub mass: f64,
+    /// Viscous friction b, N·s/m (the plant's `viscous_friction`, default 100).
+    pub viscous: f64,
+    /// Feedback and learning gains.
+    pub gains: Gains,
+    /// Sample period h, s (default 0.001).
+    pub h: f64,
+}
+
+impl ModeLoop {
+    /// Exact ZOH discretisation of m ẍ + b ẋ = f over one period:
+    /// x⁺ = x + c1 v + c2 f, v⁺ = p v + c3 f.
+    fn zoh(&self) -> (f64, f64, f64, f64) {
+        let (m, h) = (self.mass, self.h);
+        let x = self.viscous / m * h; // a h with a = b / m
+        let p = (-x).exp();
+        // (1 − e^{−x}) / x and (x − 1 + e^{−x}) / x², by series where the differences cancel.
+        let (s1, s2) = if x < 1e-4 {
+            (
+                1.0 - x / 2.0 + x * x / 6.0,
+                0.5 - x / 6.0 + x * x / 24.0,
+            )
+        } else {
+            (-(-x).exp_m1() / x, (x + (-x).exp_m1()) / (x * x))
+        };
+        (p, h * s1, h * h / m * s2, h / m * s1)
+    }
+
+    /// L(z)·P(z) at frequency `f` (Hz): the learning increment Δ per unit of learning input
+    /// u, with the sign chosen so that the update reads α − g z^δ L P.
+    ///
+    /// With G_x = (c2 + c1 c3 / (z − p)) / (z − 1), G_v = c3 / (z − p) (force to position and
+    /// rate at the next samples) and the running sum I_n = I_{n−1} + e_n h, i.e. h z / (z − 1):
+    /// L P = [(Φ + Ψ h z/(z−1)) G_x + Γ G_v] / [1 + (Kp + Ki h z/(z−1)) G_x + Kd G_v]
+    /// (paper eqs. 9, 10 and 14 on the sampled loop). Undefined at f = 0.
+    pub fn learning_response(&self, f: f64) -> Complex<f64> {
+        let (p, c1, c2, c3) = self.zoh();
+        let g = &self.gains;
+        let z = Complex::from_polar(1.0, std::f64::consts::TAU * f * self.h);
+        let one = Complex::new(1.0, 0.0);
+        let gv = c3 / (z - p);
+        let gx = (gv * c1 + c2) / (z - one);
+        let sum = z * self.h / (z - one);
+        let learn = (sum * g.psi + g.phi) * gx + gv * g.gamma;
+        let feedback = (sum * g.ki + g.kp) * gx + gv * g.kd + one;
+        learn / feedback
+    }
+
+    /// The convergence factor |Q|²·|α − g z^δ L P| at frequency `f` (Hz).
+    pub fn factor(&self, update: &Update, f: f64) -> f64 {
+        let z_lead = Complex::from_polar(
+            1.0,
+            std::f64::consts::TAU * f * self.h * update.lead as f64,
+        );
+        let inner = Complex::new(update.forgetting, 0.0)
+            - z_lead * self.learning_response(f) * update.gain;
+        let q = update.filter.map_or(1.0, |q| q.gain_sq(f, self.h));
+        q * inner.norm()
+    }
+}
+
+/// The spread of one leg-space mode over the path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeSpread {
+    /// Lightest modal mass met, kg.
+    pub min: f64,
+    /// Heaviest modal mass met, kg.
+    pub max: f64,
+    /// Reference time of the heaviest, s.
+    pub time_of_max: f64,
+    /// Reference pose (x, y, z, α, β, γ) of the heaviest, m and rad.
+    pub pose_of_max: [f64; 6],
+}
+
+/// Eigenvalues of the leg-space inertia at `pose`, ascending (the modal masses, kg).
+pub fn modal_masses(mechanism: &Mechanism, pose: &Pose) -> Result<[f64; MODES], DynamicsError> {
+    let legs = mechanism.inverse_kinematics(pose);
+    let j_inv = legs
+        .jacobian()
+        .try_inverse()
+        .ok_or(DynamicsError::SingularJacobian)?;
+    let m_leg: Matrix6<f64> = j_inv.transpose() * mechanism.mass_matrix(&legs) * j_inv;
+    let mut eig: [f64; MODES] = m_leg.symmetric_eigenvalues().into();
+    eig.sort_by(f64::total_cmp);
+    if eig[0] <= 0.0 {
+        return Err(DynamicsError::SingularMass);
+    }
+    Ok(eig)
+}
+
+/// Modal masses along `trajectory` every `stride` seconds (and at its end), mode by mode
+/// in ascending order at each pose.
+pub fn mode_spread(
+    mechanism: &Mechanism,
+    trajectory: &Trajectory,
+    stride: f64,
+) -> Result<[ModeSpread; MODES], ConvergenceError> {
+    check("stride", stride, stride > 0.0, "must be positive")?;
+    let mut spread = [ModeSpread {
+        min: f64::INFINITY,
+        max: 0.0,
+        time_of_max: 0.0,
+        pose_of_max: [0.0; 6],
+    }; MODES];
+    let n = (trajectory.duration / stride).ceil() as usize;
+    for i in 0..=n {
+        let t = (i as f64 * stride).min(trajectory.duration);
+        let pose = trajectory.sample(t).pose;
+        let masses =
+            modal_masses(mechanism, &pose).map_err(|source| ConvergenceError::Dynamics {
+                time: t,
+                source,
+            })?;
+        for (s, &m) in spread.iter_mut().zip(&masses) {
+            s.min = s.min.min(m);
+            if m > s.max {
+                s.max = m;
+                s.time_of_max = t;
+                s.pose_of_max = pose.to_xyz_euler();
+            }
+        }
+    }
+    Ok(spread)
+}
+
+/// Masses at which a mode is evaluated: its range in `points` even steps (the factor need
+/// not be monotonic in the mass, so the ends alone are not enough).
+pub fn mass_grid(spread: &ModeSpread, points: usize) -> Vec<f64> {
+    let points = points.max(2);
+    (0..points)
+        .map(|i| spread.min + (spread.max - spread.min) * i as f64 / (points - 1) as f64)
+        .collect()
+}
+
+/// Frequencies from `f_min` to just below Nyquist, logarithmically spaced, Hz.
+pub fn frequency_grid(h: f64, f_min: f64, points: usize) -> Vec<f64> {
+    let nyquist = 0.5 / h;
+    let top = nyquist * (1.0 - 1e-6);
+    let points = points.max(2);
+    let ratio = (top / f_min).ln() / (points - 1) as f64;
+    (0..points)
+        .map(|i| f_min * (ratio * i as f64).exp())
+        .collect()
+}
+
+/// The worst factor over a set of mode loops at one frequency.
+pub fn worst_factor(loops: &[ModeLoop], update: &Update, f: f64) -> f64 {
+    loops
+        .iter()
+        .map(|l| l.factor(update, f))
+        .fold(0.0, f64::max)
+}
+
+/// Frequency bands (f_lo, f_hi), Hz, on `grid` where `factor` exceeds 1, each edge refined by
+/// bisection between its grid neighbours to 1e-6 relative.
+pub fn bands_above_one(grid: &[f64], factor: impl Fn(f64) -> f64) -> Vec<(f64, f64)> {
+    let refine = |mut lo: f64, mut hi: f64, rising: bool| {
+        // Invariant: the factor is ≤ 1 at `lo` and > 1 at `hi` when rising, and the reverse
+        // when falling.
+        while hi - lo > 1e-6 * hi {
+            let mid = 0.5 * (lo + hi);
+            if (factor(mid) > 1.0) == rising {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        if rising { hi } else { lo }
+    };
+    let above: Vec<bool> = grid.iter().map(|&f| factor(f) > 1.0).collect();
+    let mut bands = Vec::new();
+    let mut start = None;
+    for i in 0..grid.len() {
+        match (above[i], start) {
+            (true, None) => {
+                start = Some(if i == 0 {
+                    grid[0]
+                } else {
+                    refine(grid[i - 1], grid[i], true)
+                });
+            }
+            (false, Some(s)) => {
+                bands.push((s, refine(grid[i - 1], grid[i], false)));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let (Some(s), Some(&last)) = (start, grid.last()) {
+        bands.push((s, last));
+    }
+    bands
+}
+
+/// The largest cutoff (Hz) up to which every cutoff keeps the worst factor ≤ 1 on `grid`,
+/// for the filter order, lead, α and g of `update`; `None` if even the lowest tried cutoff
+/// (`grid[0]`) fails, Nyquist if no filter is needed.
+pub fn max_safe_cutoff(loops: &[ModeLoop], update: &Update, order: u32, grid: &[f64]) -> Option<f64> {
+    let h = loops.first().map_or(1e-3, |l| l.h);
+    let safe = |fc: f64| {
+        let u = Update {
+            filter: Some(Butterworth { order, cutoff: fc }),
+            ..*update
+        };
+        grid.iter().all(|&f| worst_factor(loops, &u, f) <= 1.0)
+    };
+    let nyquist = 0.5 / h;
+    let cutoffs = frequency_grid(h, grid[0], 400);
+    let mut last_safe = None;
+    for &fc in &cutoffs {
+        if !safe(fc) {
+            let lo = last_safe?;
+            let (mut lo, mut hi) = (lo, fc);
+            while hi - lo > 1e-4 * hi {
+                let mid = 0.5 * (lo + hi);
+                if safe(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            return Some(lo);
+        }
+        last_safe = Some(fc);
+    }
+    Some(nyquist)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mode(mass: f64) -> ModeLoop {
+        ModeLoop {
+            mass,
+            viscous: 100.0,
+            gains: Gains::default(),
+            h: 1e-3,
+        }
+    }
+
+    /// The peak of a factor curve on a fine linear grid: (frequency, value).
+    fn peak(l: &ModeLoop, u: &Update, lo: f64, hi: f64) -> (f64, f64) {
+        (0..=20000)
+            .map(|i| lo + (hi - lo) * i as f64 / 20000.0)
+            .map(|f| (f, l.factor(u, f)))
+            .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a })
+    }
+
+    #[test]
+    fn zoh_matches_the_continuous_step_response() {
+        // m ẍ + b ẋ = f from rest over one period, closed form.
+        let l = mode(27.0);
+        let (p, c1, c2, c3) = l.zoh();
+        let a: f64 = 100.0 / 27.0;
+        let h: f64 = 1e-3;
+        let v = (1.0 - (-a * h).exp()) / 100.0;
+        let x = (h - (1.0 - (-a * h).exp()) / a) / 100.0;
+        assert!((c3 - v).abs() < 1e-15 && (c2 - x).abs() < 1e-15, "{c2} {c3}");
+        assert!((p - (-a * h).exp()).abs() < 1e-15);
+        assert!((c1 - (1.0 - p) / a).abs() < 1e-15);
+        // Frictionless limit: the series branch.
+        let free = ModeLoop { viscous: 0.0, ..l };
+        let (p, c1, c2, c3) = free.zoh();
+        assert_eq!(p, 1.0);
+        assert!((c1 - h).abs() < 1e-18);
+        assert!((c2 - h * h / 2.0 / 27.0).abs() < 1e-18);
+        assert!((c3 - h / 27.0).abs() < 1e-18);
+    }
+
+    #[test]
+    fn low_frequency_factor_is_one_minus_psi_over_ki() {
+        // The integral feedback drives the position error to zero for a constant u; what
+        // remains of Δ is Ψ I with Ki I = −u, so L P → Ψ / Ki well below the integral
+        // corner Ki / (2π Kp) ≈ 3e-5 Hz; above it, P-dominated, L P ≈ Φ / Kp.
+        let l = mode(27.0);
+        let lp = l.learning_response(1e-8);
+        assert!((lp.re - 0.75).abs() < 1e-3 && lp.im.abs() < 1e-3, "{lp}");
+        let lp = l.learning_response(0.01);
+        assert!((lp.re - 47728.0 / 50000.0).abs() < 1e-3, "{lp}");
+    }
+
+    #[test]
+    fn prototype_single_mode_figures() {
+        let paper = Update::default();
+        for (mass, onset, f_peak, value) in [(27.0, 6.1, 8.5, 1.35), (57.0, 3.7, 5.2, 1.84)] {
+            let l = mode(mass);
+            let bands = bands_above_one(&frequency_grid(1e-3, 0.1, 2000), |f| l.factor(&paper, f));
+            let (fp, v) = peak(&l, &paper, 0.5, 30.0);
+            assert!((bands[0].0 - onset).abs() < 0.1, "{mass} kg: {bands:?}");
+            assert!((fp - f_peak).abs() < 0.1 && (v - value).abs() < 0.01, "{mass} kg: {fp} {v}");
+        }
+    }
+}
