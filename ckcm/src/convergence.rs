@@ -42,7 +42,12 @@ pub enum ConvergenceError {
     },
 }
 
-fn check(name: &'static str, value: f64, ok: bool, reason: &'static str) -> Result<(), ConvergenceError> {
+fn check(
+    name: &'static str,
+    value: f64,
+    ok: bool,
+    reason: &'static str,
+) -> Result<(), ConvergenceError> {
     if value.is_finite() && ok {
         Ok(())
     } else {
@@ -68,7 +73,8 @@ impl Butterworth {
     /// forward-backward filter's whole gain. For the bilinear-transform design (scipy's
     /// `butter`, prewarped at f_c) |Q|² = 1 / (1 + (tan(πfh) / tan(πf_c h))^{2N}).
     pub fn gain_sq(&self, f: f64, h: f64) -> f64 {
-        let r = (std::f64::consts::PI * f * h).tan() / (std::f64::consts::PI * self.cutoff * h).tan();
+        let r =
+            (std::f64::consts::PI * f * h).tan() / (std::f64::consts::PI * self.cutoff * h).tan();
         1.0 / (1.0 + r.abs().powi(2 * self.order as i32))
     }
 }
@@ -145,10 +151,7 @@ impl ModeLoop {
         let p = (-x).exp();
         // (1 − e^{−x}) / x and (x − 1 + e^{−x}) / x², by series where the differences cancel.
         let (s1, s2) = if x < 1e-4 {
-            (
-                1.0 - x / 2.0 + x * x / 6.0,
-                0.5 - x / 6.0 + x * x / 24.0,
-            )
+            (1.0 - x / 2.0 + x * x / 6.0, 0.5 - x / 6.0 + x * x / 24.0)
         } else {
             (-(-x).exp_m1() / x, (x + (-x).exp_m1()) / (x * x))
         };
@@ -177,12 +180,10 @@ impl ModeLoop {
 
     /// The convergence factor |Q|²·|α − g z^δ L P| at frequency `f` (Hz).
     pub fn factor(&self, update: &Update, f: f64) -> f64 {
-        let z_lead = Complex::from_polar(
-            1.0,
-            std::f64::consts::TAU * f * self.h * update.lead as f64,
-        );
-        let inner = Complex::new(update.forgetting, 0.0)
-            - z_lead * self.learning_response(f) * update.gain;
+        let z_lead =
+            Complex::from_polar(1.0, std::f64::consts::TAU * f * self.h * update.lead as f64);
+        let inner =
+            Complex::new(update.forgetting, 0.0) - z_lead * self.learning_response(f) * update.gain;
         let q = update.filter.map_or(1.0, |q| q.gain_sq(f, self.h));
         q * inner.norm()
     }
@@ -235,11 +236,8 @@ pub fn mode_spread(
     for i in 0..=n {
         let t = (i as f64 * stride).min(trajectory.duration);
         let pose = trajectory.sample(t).pose;
-        let masses =
-            modal_masses(mechanism, &pose).map_err(|source| ConvergenceError::Dynamics {
-                time: t,
-                source,
-            })?;
+        let masses = modal_masses(mechanism, &pose)
+            .map_err(|source| ConvergenceError::Dynamics { time: t, source })?;
         for (s, &m) in spread.iter_mut().zip(&masses) {
             s.min = s.min.min(m);
             if m > s.max {
@@ -321,25 +319,33 @@ pub fn bands_above_one(grid: &[f64], factor: impl Fn(f64) -> f64) -> Vec<(f64, f
     bands
 }
 
-/// The largest cutoff (Hz) up to which every cutoff keeps the worst factor ≤ 1 on `grid`,
-/// for the filter order, lead, α and g of `update`; `None` if even the lowest tried cutoff
-/// (`grid[0]`) fails, Nyquist if no filter is needed.
-pub fn max_safe_cutoff(loops: &[ModeLoop], update: &Update, order: u32, grid: &[f64]) -> Option<f64> {
-    let h = loops.first().map_or(1e-3, |l| l.h);
-    let safe = |fc: f64| {
-        let u = Update {
-            filter: Some(Butterworth { order, cutoff: fc }),
-            ..*update
-        };
-        grid.iter().all(|&f| worst_factor(loops, &u, f) <= 1.0)
+/// |α − g z^δ L P| per frequency of `grid`, worst over `loops`: the factor before the filter,
+/// which does not depend on the cutoff.
+pub fn unfiltered_envelope(loops: &[ModeLoop], update: &Update, grid: &[f64]) -> Vec<f64> {
+    let bare = Update {
+        filter: None,
+        ..*update
     };
-    let nyquist = 0.5 / h;
-    let cutoffs = frequency_grid(h, grid[0], 400);
+    grid.iter()
+        .map(|&f| worst_factor(loops, &bare, f))
+        .collect()
+}
+
+/// The largest cutoff (Hz) of an order-`order` filter up to which every cutoff keeps
+/// |Q|²·`envelope` ≤ 1 on `grid` (`envelope` from [`unfiltered_envelope`]); `None` if even
+/// the lowest frequency of the grid fails as a cutoff, Nyquist if no filter is needed.
+pub fn max_safe_cutoff(envelope: &[f64], grid: &[f64], order: u32, h: f64) -> Option<f64> {
+    let safe = |cutoff: f64| {
+        let q = Butterworth { order, cutoff };
+        grid.iter()
+            .zip(envelope)
+            .all(|(&f, &e)| q.gain_sq(f, h) * e <= 1.0)
+    };
+    let cutoffs = frequency_grid(h, grid[0], 200);
     let mut last_safe = None;
     for &fc in &cutoffs {
         if !safe(fc) {
-            let lo = last_safe?;
-            let (mut lo, mut hi) = (lo, fc);
+            let (mut lo, mut hi) = (last_safe?, fc);
             while hi - lo > 1e-4 * hi {
                 let mid = 0.5 * (lo + hi);
                 if safe(mid) {
@@ -352,7 +358,230 @@ pub fn max_safe_cutoff(loops: &[ModeLoop], update: &Update, order: u32, grid: &[
         }
         last_safe = Some(fc);
     }
-    Some(nyquist)
+    Some(0.5 / h)
+}
+
+/// Largest mass a mode keeps for at least `dwell` seconds: max over t of the minimum over
+/// [t, t + dwell] of `masses` sampled every `stride` seconds (the minimum over the whole
+/// series when `dwell` exceeds it).
+pub fn sustained_mass(masses: &[f64], stride: f64, dwell: f64) -> f64 {
+    let w = ((dwell / stride).round() as usize).clamp(0, masses.len().saturating_sub(1));
+    masses
+        .windows(w + 1)
+        .map(|win| win.iter().copied().fold(f64::INFINITY, f64::min))
+        .fold(0.0, f64::max)
+}
+
+/// What the analysis needs: the plant along the path, the sampled loop and the update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Problem {
+    /// The plant's mechanism (its full model, legs included).
+    pub plant: Mechanism,
+    /// The controller's reference.
+    pub trajectory: Trajectory,
+    /// Feedback and learning gains of the controller.
+    pub gains: Gains,
+    /// Sample period h, s. Default 0.001.
+    pub h: f64,
+    /// The between-trial update.
+    pub update: Update,
+    /// Spacing of the poses sampled along the path, s. Default 0.005.
+    pub stride: f64,
+    /// How long a pose must last to count for the sustained-mass estimate, s. Default 1.0
+    /// (docs/convergence.md: a diverging component at 4–8 Hz spans several periods plus the
+    /// loop and filter transients; briefer peaks are averaged with lighter poses).
+    pub dwell: f64,
+    /// Filter order for the largest-safe-cutoff search when `update` has no filter. Default 4.
+    pub search_order: u32,
+}
+
+/// Frequencies evaluated, and their count.
+const FREQUENCIES: usize = 1500;
+/// Lowest frequency evaluated, Hz (below the 27 kg loop's bandwidth by two decades).
+const F_MIN: f64 = 0.05;
+/// Masses per mode range.
+const MASS_POINTS: usize = 7;
+
+/// A peak of the factor: (mode index 0..6, frequency Hz, value).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Peak {
+    pub mode: usize,
+    pub frequency: f64,
+    pub value: f64,
+}
+
+/// One verdict: the peak factor over modes and frequencies, and whether it stays ≤ 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict {
+    pub peak: Peak,
+    /// Largest safe cutoff (Hz) for the update's order (or `search_order`) and lead, see
+    /// [`max_safe_cutoff`].
+    pub max_safe_cutoff: Option<f64>,
+}
+
+impl Verdict {
+    /// Learning is predicted to converge.
+    pub fn converges(&self) -> bool {
+        self.peak.value <= 1.0
+    }
+}
+
+/// One mode's results.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeResult {
+    pub spread: ModeSpread,
+    /// Largest mass held for `dwell`, kg.
+    pub sustained: f64,
+    /// Worst factor over every mass the mode takes on the path, per frequency.
+    pub worst: Vec<f64>,
+    /// Worst factor over masses up to the sustained one, per frequency.
+    pub sustained_factor: Vec<f64>,
+    /// As `worst` without the filter (the same lead, α and g).
+    pub unfiltered: Vec<f64>,
+}
+
+/// The whole analysis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Analysis {
+    /// Frequencies, Hz.
+    pub frequencies: Vec<f64>,
+    /// |Q|² per frequency (1 without a filter).
+    pub q_gain_sq: Vec<f64>,
+    pub modes: Vec<ModeResult>,
+    /// Every mode at every pose of the path (sufficient under the frozen-pose model).
+    pub worst_case: Verdict,
+    /// Every mode at the masses it sustains for `dwell` (the prediction to compare with
+    /// simulation).
+    pub sustained: Verdict,
+    /// Bands (Hz) where learning diverges without the filter, frozen worst case.
+    pub unfiltered_bands: Vec<(f64, f64)>,
+}
+
+fn loops_for(p: &Problem, lo: f64, hi: f64) -> Vec<ModeLoop> {
+    let s = ModeSpread {
+        min: lo,
+        max: hi.max(lo),
+        time_of_max: 0.0,
+        pose_of_max: [0.0; 6],
+    };
+    mass_grid(&s, MASS_POINTS)
+        .into_iter()
+        .map(|mass| ModeLoop {
+            mass,
+            viscous: p.plant.params.friction.viscous,
+            gains: p.gains,
+            h: p.h,
+        })
+        .collect()
+}
+
+fn peak_of(curves: &[&[f64]], frequencies: &[f64]) -> Peak {
+    let mut best = Peak {
+        mode: 0,
+        frequency: frequencies[0],
+        value: 0.0,
+    };
+    for (mode, c) in curves.iter().enumerate() {
+        for (&v, &f) in c.iter().zip(frequencies) {
+            if v > best.value {
+                best = Peak {
+                    mode,
+                    frequency: f,
+                    value: v,
+                };
+            }
+        }
+    }
+    best
+}
+
+/// Runs the analysis.
+pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
+    p.update.validate(p.h)?;
+    check("dwell", p.dwell, p.dwell >= 0.0, "must not be negative")?;
+    check(
+        "search_order",
+        f64::from(p.search_order),
+        p.search_order >= 1,
+        "the filter order must be at least 1",
+    )?;
+    let spread = mode_spread(&p.plant, &p.trajectory, p.stride)?;
+    // The mass histories again, for the sustained masses.
+    let n = (p.trajectory.duration / p.stride).ceil() as usize;
+    let mut history = vec![Vec::with_capacity(n + 1); MODES];
+    for i in 0..=n {
+        let t = (i as f64 * p.stride).min(p.trajectory.duration);
+        let m = modal_masses(&p.plant, &p.trajectory.sample(t).pose)
+            .map_err(|source| ConvergenceError::Dynamics { time: t, source })?;
+        for (h, &x) in history.iter_mut().zip(&m) {
+            h.push(x);
+        }
+    }
+    let frequencies = frequency_grid(p.h, F_MIN, FREQUENCIES);
+    let q_gain_sq = frequencies
+        .iter()
+        .map(|&f| p.update.filter.map_or(1.0, |q| q.gain_sq(f, p.h)))
+        .collect();
+    let bare = Update {
+        filter: None,
+        ..p.update
+    };
+    let mut modes = Vec::with_capacity(MODES);
+    let mut all_worst = Vec::new();
+    let mut all_sustained = Vec::new();
+    for (s, hist) in spread.iter().zip(&history) {
+        let sustained = sustained_mass(hist, p.stride, p.dwell);
+        let full = loops_for(p, s.min, s.max);
+        let held = loops_for(p, s.min, sustained);
+        let curve = |loops: &[ModeLoop], u: &Update| -> Vec<f64> {
+            frequencies
+                .iter()
+                .map(|&f| worst_factor(loops, u, f))
+                .collect()
+        };
+        all_worst.extend_from_slice(&full);
+        all_sustained.extend_from_slice(&held);
+        modes.push(ModeResult {
+            spread: *s,
+            sustained,
+            worst: curve(&full, &p.update),
+            sustained_factor: curve(&held, &p.update),
+            unfiltered: curve(&full, &bare),
+        });
+    }
+    let order = p.update.filter.map_or(p.search_order, |q| q.order);
+    let worst_curves: Vec<&[f64]> = modes.iter().map(|m| m.worst.as_slice()).collect();
+    let held_curves: Vec<&[f64]> = modes
+        .iter()
+        .map(|m| m.sustained_factor.as_slice())
+        .collect();
+    let worst_case = Verdict {
+        peak: peak_of(&worst_curves, &frequencies),
+        max_safe_cutoff: max_safe_cutoff(
+            &unfiltered_envelope(&all_worst, &p.update, &frequencies),
+            &frequencies,
+            order,
+            p.h,
+        ),
+    };
+    let sustained = Verdict {
+        peak: peak_of(&held_curves, &frequencies),
+        max_safe_cutoff: max_safe_cutoff(
+            &unfiltered_envelope(&all_sustained, &p.update, &frequencies),
+            &frequencies,
+            order,
+            p.h,
+        ),
+    };
+    let unfiltered_bands = bands_above_one(&frequencies, |f| worst_factor(&all_worst, &bare, f));
+    Ok(Analysis {
+        frequencies,
+        q_gain_sq,
+        modes,
+        worst_case,
+        sustained,
+        unfiltered_bands,
+    })
 }
 
 #[cfg(test)]
@@ -385,7 +614,10 @@ mod tests {
         let h: f64 = 1e-3;
         let v = (1.0 - (-a * h).exp()) / 100.0;
         let x = (h - (1.0 - (-a * h).exp()) / a) / 100.0;
-        assert!((c3 - v).abs() < 1e-15 && (c2 - x).abs() < 1e-15, "{c2} {c3}");
+        assert!(
+            (c3 - v).abs() < 1e-15 && (c2 - x).abs() < 1e-15,
+            "{c2} {c3}"
+        );
         assert!((p - (-a * h).exp()).abs() < 1e-15);
         assert!((c1 - (1.0 - p) / a).abs() < 1e-15);
         // Frictionless limit: the series branch.
@@ -417,7 +649,10 @@ mod tests {
             let bands = bands_above_one(&frequency_grid(1e-3, 0.1, 2000), |f| l.factor(&paper, f));
             let (fp, v) = peak(&l, &paper, 0.5, 30.0);
             assert!((bands[0].0 - onset).abs() < 0.1, "{mass} kg: {bands:?}");
-            assert!((fp - f_peak).abs() < 0.1 && (v - value).abs() < 0.01, "{mass} kg: {fp} {v}");
+            assert!(
+                (fp - f_peak).abs() < 0.1 && (v - value).abs() < 0.01,
+                "{mass} kg: {fp} {v}"
+            );
         }
     }
 }
