@@ -218,36 +218,47 @@ pub fn modal_masses(mechanism: &Mechanism, pose: &Pose) -> Result<[f64; MODES], 
     Ok(eig)
 }
 
-/// Modal masses along `trajectory` every `stride` seconds (and at its end), mode by mode
-/// in ascending order at each pose.
-pub fn mode_spread(
+/// Modal masses (ascending at each pose) along `trajectory` every `stride` seconds and at its
+/// end: (time s, masses kg).
+pub fn mass_history(
     mechanism: &Mechanism,
     trajectory: &Trajectory,
     stride: f64,
-) -> Result<[ModeSpread; MODES], ConvergenceError> {
+) -> Result<Vec<(f64, [f64; MODES])>, ConvergenceError> {
     check("stride", stride, stride > 0.0, "must be positive")?;
+    let n = (trajectory.duration / stride).ceil() as usize;
+    (0..=n)
+        .map(|i| {
+            let t = (i as f64 * stride).min(trajectory.duration);
+            modal_masses(mechanism, &trajectory.sample(t).pose)
+                .map(|m| (t, m))
+                .map_err(|source| ConvergenceError::Dynamics { time: t, source })
+        })
+        .collect()
+}
+
+/// Each mode's spread over a [`mass_history`] of `trajectory`.
+pub fn mode_spread(
+    history: &[(f64, [f64; MODES])],
+    trajectory: &Trajectory,
+) -> [ModeSpread; MODES] {
     let mut spread = [ModeSpread {
         min: f64::INFINITY,
         max: 0.0,
         time_of_max: 0.0,
         pose_of_max: [0.0; 6],
     }; MODES];
-    let n = (trajectory.duration / stride).ceil() as usize;
-    for i in 0..=n {
-        let t = (i as f64 * stride).min(trajectory.duration);
-        let pose = trajectory.sample(t).pose;
-        let masses = modal_masses(mechanism, &pose)
-            .map_err(|source| ConvergenceError::Dynamics { time: t, source })?;
+    for &(t, masses) in history {
         for (s, &m) in spread.iter_mut().zip(&masses) {
             s.min = s.min.min(m);
             if m > s.max {
                 s.max = m;
                 s.time_of_max = t;
-                s.pose_of_max = pose.to_xyz_euler();
+                s.pose_of_max = trajectory.sample(t).pose.to_xyz_euler();
             }
         }
     }
-    Ok(spread)
+    spread
 }
 
 /// Masses at which a mode is evaluated: its range in `points` even steps (the factor need
@@ -505,18 +516,8 @@ pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
         p.search_order >= 1,
         "the filter order must be at least 1",
     )?;
-    let spread = mode_spread(&p.plant, &p.trajectory, p.stride)?;
-    // The mass histories again, for the sustained masses.
-    let n = (p.trajectory.duration / p.stride).ceil() as usize;
-    let mut history = vec![Vec::with_capacity(n + 1); MODES];
-    for i in 0..=n {
-        let t = (i as f64 * p.stride).min(p.trajectory.duration);
-        let m = modal_masses(&p.plant, &p.trajectory.sample(t).pose)
-            .map_err(|source| ConvergenceError::Dynamics { time: t, source })?;
-        for (h, &x) in history.iter_mut().zip(&m) {
-            h.push(x);
-        }
-    }
+    let history = mass_history(&p.plant, &p.trajectory, p.stride)?;
+    let spread = mode_spread(&history, &p.trajectory);
     let frequencies = frequency_grid(p.h, F_MIN, FREQUENCIES);
     let q_gain_sq = frequencies
         .iter()
@@ -529,8 +530,9 @@ pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
     let mut modes = Vec::with_capacity(MODES);
     let mut all_worst = Vec::new();
     let mut all_sustained = Vec::new();
-    for (s, hist) in spread.iter().zip(&history) {
-        let sustained = sustained_mass(hist, p.stride, p.dwell);
+    for (i, s) in spread.iter().enumerate() {
+        let masses: Vec<f64> = history.iter().map(|(_, m)| m[i]).collect();
+        let sustained = sustained_mass(&masses, p.stride, p.dwell);
         let full = loops_for(p, s.min, s.max);
         let held = loops_for(p, s.min, sustained);
         let curve = |loops: &[ModeLoop], u: &Update| -> Vec<f64> {

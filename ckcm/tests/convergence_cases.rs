@@ -24,15 +24,39 @@ fn circle(filter: Option<(u32, f64)>, lead: usize, gain: f64) -> Problem {
     }
 }
 
-/// (name, filter (order, cutoff Hz), lead, gain, converges in simulation).
-pub const CASES: [(&str, Option<(u32, f64)>, usize, f64, bool); 7] = [
-    ("no filter", None, 0, 1.0, false),
-    ("Q 5 Hz order 2", Some((2, 5.0)), 0, 1.0, true),
-    ("Q 10 Hz order 2", Some((2, 10.0)), 0, 1.0, false),
-    ("Q 8 Hz order 4 lead 25", Some((4, 8.0)), 25, 1.0, true),
-    ("Q 10 Hz order 4 lead 25", Some((4, 10.0)), 25, 1.0, true),
-    ("Q 10 Hz order 4 lead 30", Some((4, 10.0)), 30, 1.0, false),
-    (
+/// One circle campaign: filter (order, cutoff Hz), lead, gain and its simulated verdict.
+struct Case {
+    name: &'static str,
+    filter: Option<(u32, f64)>,
+    lead: usize,
+    gain: f64,
+    converges: bool,
+}
+
+const fn case(
+    name: &'static str,
+    filter: Option<(u32, f64)>,
+    lead: usize,
+    gain: f64,
+    converges: bool,
+) -> Case {
+    Case {
+        name,
+        filter,
+        lead,
+        gain,
+        converges,
+    }
+}
+
+const CASES: [Case; 7] = [
+    case("no filter", None, 0, 1.0, false),
+    case("Q 5 Hz order 2", Some((2, 5.0)), 0, 1.0, true),
+    case("Q 10 Hz order 2", Some((2, 10.0)), 0, 1.0, false),
+    case("Q 8 Hz order 4 lead 25", Some((4, 8.0)), 25, 1.0, true),
+    case("Q 10 Hz order 4 lead 25", Some((4, 10.0)), 25, 1.0, true),
+    case("Q 10 Hz order 4 lead 30", Some((4, 10.0)), 30, 1.0, false),
+    case(
         "gains x1.5, Q 8 Hz order 4 lead 25",
         Some((4, 8.0)),
         25,
@@ -43,7 +67,14 @@ pub const CASES: [(&str, Option<(u32, f64)>, usize, f64, bool); 7] = [
 
 #[test]
 fn sustained_verdicts_match_simulation_and_worst_case_is_conservative() {
-    for (name, filter, lead, gain, converges) in CASES {
+    for Case {
+        name,
+        filter,
+        lead,
+        gain,
+        converges,
+    } in CASES
+    {
         let a = analyse(&circle(filter, lead, gain)).unwrap();
         assert_eq!(
             a.sustained.converges(),
