@@ -185,7 +185,7 @@ fn filtfilt(sos: &[([f64; 3], [f64; 2])], x: &[f64], pad: usize) -> Vec<f64> {
 
 /// Max leg error (mm) of each trial of a circle campaign through the Rust closed loop, with
 /// u_{k+1} = Q[u_k + shift_δ(Δ_k)] and the learning gains scaled by `scale`; stops early
-/// once the error exceeds 1 mm (diverged beyond doubt).
+/// once the error exceeds 10 mm (diverged beyond doubt).
 fn campaign(filter: Option<(u32, f64)>, lead: usize, scale: f64, trials: usize) -> Vec<f64> {
     let h = 1e-3;
     let plant = Mechanism::new(Params::default()).unwrap();
@@ -236,15 +236,16 @@ fn campaign(filter: Option<(u32, f64)>, lead: usize, scale: f64, trials: usize) 
                 u[n][leg] = new[n];
             }
         }
-        if emax > 1.0 {
+        if emax > 1e-2 {
             break;
         }
     }
     out
 }
 
-/// Simulated verdict: the max error of the last trial is within 1.5× of the best trial's
-/// (diverging campaigns end 8× to 20000× above their best).
+/// Simulated verdict: all 50 trials ran (none above 10 mm; PID alone gives 1.4 mm) and
+/// the last trial's max error is within 1.5× of the best trial's (the converging campaigns
+/// end within 1.05× of their best; Q 10 Hz order 4 lead 30 ends 8× above its best).
 fn simulated_convergence(errors: &[f64]) -> bool {
     let best = errors.iter().copied().fold(f64::INFINITY, f64::min);
     errors.len() == 50 && *errors.last().unwrap() <= 1.5 * best
