@@ -32,7 +32,9 @@ pub enum WorkspaceError {
     },
     #[error("platform joint {joint} reached the base plane (z = {z} m)")]
     BasePlane { joint: usize, z: f64 },
-    #[error("the stroke [{min}, {max}] m is empty or not finite: length_min must be below length_max")]
+    #[error(
+        "the stroke [{min}, {max}] m is empty or not finite: length_min must be below length_max"
+    )]
     EmptyStroke { min: f64, max: f64 },
 }
 
@@ -108,7 +110,10 @@ mod tests {
         // Through the base plane: reported before the stroke.
         let below = Pose::home(-0.45);
         let e = check(&mech, &ws, &below).unwrap_err();
-        assert!(matches!(e, WorkspaceError::BasePlane { z, .. } if z < 0.0), "{e}");
+        assert!(
+            matches!(e, WorkspaceError::BasePlane { z, .. } if z < 0.0),
+            "{e}"
+        );
         let nan = Pose::home(f64::NAN);
         assert_eq!(check(&mech, &ws, &nan), Err(WorkspaceError::NonFinite));
         let legs = mech.inverse_kinematics(&Pose::home(0.5));

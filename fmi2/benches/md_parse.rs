@@ -61,7 +61,12 @@ fn bench(c: &mut Criterion) {
         let parsed = ModelDescription::parse(&xml).expect("the generated description is valid");
         assert_eq!(parsed.model_variables.len(), n);
         let problems = parsed.validate();
-        assert!(problems.is_empty(), "{} problems, first {:?}", problems.len(), problems.first());
+        assert!(
+            problems.is_empty(),
+            "{} problems, first {:?}",
+            problems.len(),
+            problems.first()
+        );
         group.bench_function(format!("parse/{n}"), |b| {
             b.iter(|| ModelDescription::parse(black_box(&xml)))
         });

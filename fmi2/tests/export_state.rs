@@ -253,7 +253,11 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
     // Everything but the 96 payload bytes: header and checksum.
     let header = good.len() - 96;
     let body = good[..good.len() - 4].to_vec();
-    assert_eq!(sealed(body.clone()), good, "the checksum is a CRC-32 of the rest");
+    assert_eq!(
+        sealed(body.clone()),
+        good,
+        "the checksum is a CRC-32 of the rest"
+    );
     let expect = |bytes: &[u8], needle: &str| {
         let (s, msgs) = try_deserialize(bytes);
         assert_eq!(s, Status::Error, "{needle}");

@@ -82,7 +82,8 @@ impl VarSpec {
         let below = self.min.is_some_and(|lo| !(value >= lo));
         let above = self.max.is_some_and(|hi| !(value <= hi));
         if below || above {
-            let bound = |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
+            let bound =
+                |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
             return Err(format!(
                 "{} = {value} is outside its range [{}, {}]",
                 self.name,

@@ -230,11 +230,8 @@ impl<M: Model> Snapshot<M> {
         }
         let glue = decode_glue(state, flags, step_status, reals).map_err(DecodeError::Invalid)?;
         let mut model = M::new();
-        model
-            .restore(&body[header..])
-            .map_err(DecodeError::Model)?;
-        check_ranges(&model)
-            .map_err(|e| DecodeError::Invalid(format!("the state holds {e}")))?;
+        model.restore(&body[header..]).map_err(DecodeError::Model)?;
+        check_ranges(&model).map_err(|e| DecodeError::Invalid(format!("the state holds {e}")))?;
         Ok(Self::new(model, glue))
     }
 }

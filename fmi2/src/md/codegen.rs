@@ -150,7 +150,10 @@ fn f64_literal(x: f64) -> String {
 
 /// `Some(x)` / `None` as a Rust expression.
 fn option_literal(x: Option<f64>) -> String {
-    x.map_or_else(|| "None".to_owned(), |x| format!("Some({})", f64_literal(x)))
+    x.map_or_else(
+        || "None".to_owned(),
+        |x| format!("Some({})", f64_literal(x)),
+    )
 }
 
 fn var_type_ident(t: VarType) -> &'static str {
