@@ -77,7 +77,8 @@ pub struct SimulateArgs {
     /// Stop time in s (default: the model's DefaultExperiment, else 1).
     #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication step size in s (default: the model's DefaultExperiment, else 1e-3).
+    /// Communication step size in s (default: the model's DefaultExperiment, else fmpy's
+    /// default output interval: 500 to 1000 steps over the span, e.g. 2 ms for 1 s).
     #[arg(long)]
     pub step_size: Option<f64>,
     /// Start values, NAME=VALUE (repeatable): numbers for Real and Integer, true/false for
