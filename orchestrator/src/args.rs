@@ -42,9 +42,20 @@ pub struct RunArgs {
     /// Ask the FMUs for debug logging (messages go to stderr).
     #[arg(long)]
     pub fmu_logging: bool,
+    /// Start a new campaign in an --out folder that already holds one, replacing it (the
+    /// old files are removed once the new first trial has succeeded).
+    #[arg(long, conflicts_with = "resume")]
+    pub force: bool,
+    /// Refuse to start a campaign estimated to need more memory than this, in MiB
+    /// (default: the scenario's `memory_limit_mib`, else 4096).
+    #[arg(long, value_name = "MIB")]
+    pub memory_limit_mib: Option<u64>,
     /// Stop after this many trials in total, as if interrupted (for testing resume).
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
+    /// Abort at the n-th file operation, as if killed (for testing resume).
+    #[arg(long, hide = true)]
+    pub crash_at: Option<usize>,
 }
 
 /// `simulate`.
@@ -66,7 +77,8 @@ pub struct SimulateArgs {
     /// Stop time in s (default: the model's DefaultExperiment, else 1).
     #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication step size in s (default: the model's DefaultExperiment, else 1e-3).
+    /// Communication step size in s (default: the model's DefaultExperiment, else fmpy's
+    /// default output interval: 500 to 1000 steps over the span, e.g. 2 ms for 1 s).
     #[arg(long)]
     pub step_size: Option<f64>,
     /// Start values, NAME=VALUE (repeatable): numbers for Real and Integer, true/false for

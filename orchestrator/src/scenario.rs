@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use fmi2::export::{Causality, VarType};
-use fmi2::md::{ModelDescription, SimpleTypeKind, VariableKind};
+use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -40,6 +40,9 @@ struct RawScenario {
     record: RawRecord,
     #[serde(default)]
     metrics: Option<RawMetrics>,
+    /// Refuse to run beyond this estimated memory, MiB (see `campaign::check_memory`).
+    #[serde(default)]
+    memory_limit_mib: Option<Spanned<u64>>,
 }
 
 fn no_record() -> RawRecord {
@@ -98,6 +101,9 @@ struct RawMetrics {
 fn default_rho() -> Spanned<f64> {
     Spanned::new(0..0, DEFAULT_RHO)
 }
+
+/// Most steps per trial: 2^53, where t_n = t_0 + n·h stops telling samples apart.
+const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 
 /// Default weight of the λ-norm, 1/s.
 pub const DEFAULT_RHO: f64 = 1.0;
@@ -210,6 +216,11 @@ pub struct Scenario {
     pub memory: Vec<Link>,
     pub record: Record,
     pub metrics: Option<Metrics>,
+    /// `memory_limit_mib`: the most memory a campaign may take, MiB (default: the
+    /// campaign's default, 4096).
+    pub memory_limit_mib: Option<u64>,
+    /// Line of `stop_time`, which with `step_size` sets the campaign's size (for messages).
+    pub stop_time_line: Option<usize>,
 }
 
 /// Line (1-based) of a byte offset.
@@ -286,10 +297,20 @@ impl Scenario {
             );
         }
         let steps_f = (stop - raw.start_time) / h;
+        // Beyond 2^53 steps t_n = t_0 + n·h no longer tells samples apart.
+        if !(steps_f.is_finite() && steps_f <= MAX_STEPS) {
+            return cx.err(
+                span_stop.clone(),
+                format!(
+                    "(stop_time − start_time) / step_size = {steps_f:e} steps is more than \
+                     {MAX_STEPS:e}; enlarge step_size or shorten the trial"
+                ),
+            );
+        }
         let steps = steps_f.round() as usize;
         if (steps_f - steps as f64).abs() > 1e-6 * steps_f.max(1.0) {
             return cx.err(
-                span_stop,
+                span_stop.clone(),
                 format!(
                     "stop_time − start_time = {} is not a whole number of steps of {h} s",
                     stop - raw.start_time
@@ -366,9 +387,20 @@ impl Scenario {
                 }
             }
         }
-        let mut ports = Vec::new();
+        let mut ports: Vec<Port> = Vec::new();
+        let mut recorded: BTreeMap<String, String> = BTreeMap::new();
         for r in &raw.record.variables {
             let p = resolve(r, "record")?;
+            // A variable listed twice would give two CSV columns of one name: refused, so
+            // the scenario says exactly what each column is.
+            for name in &p.names {
+                if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+                    return cx.err(
+                        r.span(),
+                        format!("record: {name:?} is listed twice (already recorded by {by:?})"),
+                    );
+                }
+            }
             if p.var_type != VarType::Real {
                 return cx.err(
                     r.span(),
@@ -464,6 +496,8 @@ impl Scenario {
                 trials: rec_trials,
             },
             metrics,
+            memory_limit_mib: raw.memory_limit_mib.as_ref().map(|m| *m.get_ref()),
+            stop_time_line: (span_stop.end > 0).then(|| line_of(text, span_stop.start)),
         })
     }
 
@@ -755,6 +789,9 @@ fn parameter_settings(
                 return bad("no value: String parameters are not supported");
             }
         };
+        if let Err(message) = check_value(md, v, &parsed) {
+            return cx.err(value.span(), message);
+        }
         out.push(Setting {
             name: v.name.clone(),
             value_reference: v.value_reference,
@@ -762,6 +799,76 @@ fn parameter_settings(
         });
     }
     Ok(out)
+}
+
+/// The `min` and `max` that bound `var`: its own attributes, else those of its declared type.
+pub fn declared_range(md: &ModelDescription, var: &ScalarVariable) -> (Option<f64>, Option<f64>) {
+    let declared = |name: Option<&str>| name.and_then(|n| md.simple_type(n)).map(|t| &t.kind);
+    match &var.kind {
+        VariableKind::Real {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Real { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin), max.or(tmax))
+        }
+        VariableKind::Integer {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Integer { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin).map(f64::from), max.or(tmax).map(f64::from))
+        }
+        // The items bound an enumeration type; a variable may narrow them.
+        VariableKind::Enumeration { min, max, .. } => (min.map(f64::from), max.map(f64::from)),
+        VariableKind::Boolean { .. } | VariableKind::String { .. } => (None, None),
+    }
+}
+
+/// Checks a value against what the model description allows for `var`: a finite number
+/// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
+/// an error the FMU may only report later, without the scenario's line).
+pub fn check_value(
+    md: &ModelDescription,
+    var: &ScalarVariable,
+    value: &Value,
+) -> Result<(), String> {
+    let x = match *value {
+        Value::Real(x) => x,
+        Value::Integer(n) => f64::from(n),
+        Value::Boolean(_) => return Ok(()),
+    };
+    let name = &var.name;
+    if !x.is_finite() {
+        return Err(format!("{name:?} = {x} is not a finite number"));
+    }
+    let (min, max) = declared_range(md, var);
+    let range = format!(
+        "[{}, {}]",
+        min.map_or("-inf".to_owned(), |m| m.to_string()),
+        max.map_or("inf".to_owned(), |m| m.to_string())
+    );
+    if let Some(m) = min.filter(|&m| x < m) {
+        return Err(format!(
+            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
+        ));
+    }
+    if let Some(m) = max.filter(|&m| x > m) {
+        return Err(format!(
+            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
