@@ -12,6 +12,7 @@ pub mod control;
 pub mod dynamics;
 pub mod integrate;
 pub mod kinematics;
+pub mod learning;
 pub mod metrics;
 pub mod params;
 pub mod rotation;

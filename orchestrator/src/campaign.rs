@@ -354,8 +354,8 @@ fn write_memory_csv(
     let mut row = vec![0.0; names.len()];
     for n in 0..scenario.steps {
         let mut col = 0;
-        for (c, l) in scenario.memory.iter().enumerate() {
-            let width = l.from.value_references.len();
+        for (c, m) in scenario.memory.iter().enumerate() {
+            let width = m.link.from.value_references.len();
             row[col..col + width].copy_from_slice(&buffers[c][n * width..(n + 1) * width]);
             col += width;
         }
@@ -568,7 +568,7 @@ pub fn run_campaign(
             let lens: Vec<usize> = scenario
                 .memory
                 .iter()
-                .map(|l| scenario.steps * l.from.value_references.len())
+                .map(|m| scenario.steps * m.link.from.value_references.len())
                 .collect();
             let data = read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?;
             master.set_memory(&data);

@@ -7,6 +7,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2::export::{Causality, VarType};
 use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 use serde::Deserialize;
@@ -35,7 +36,7 @@ struct RawScenario {
     #[serde(default, rename = "connection")]
     connections: Vec<RawLink>,
     #[serde(default)]
-    memory: Vec<RawLink>,
+    memory: Vec<RawMemory>,
     #[serde(default = "no_record")]
     record: RawRecord,
     #[serde(default)]
@@ -71,6 +72,34 @@ struct RawFmu {
 struct RawLink {
     from: Spanned<String>,
     to: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMemory {
+    from: Spanned<String>,
+    to: Spanned<String>,
+    #[serde(default)]
+    update: Option<Spanned<RawUpdate>>,
+}
+
+/// `[memory.update]`: the robust learning update (docs/model.md §9). Integers are read
+/// signed so that a negative value gets its own message.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawUpdate {
+    #[serde(default)]
+    filter: Option<Spanned<String>>,
+    #[serde(default)]
+    order: Option<Spanned<i64>>,
+    #[serde(default)]
+    cutoff: Option<Spanned<f64>>,
+    #[serde(default)]
+    lead: Option<Spanned<i64>>,
+    #[serde(default)]
+    forgetting: Option<Spanned<f64>>,
+    #[serde(default)]
+    gain: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -170,6 +199,16 @@ pub struct Link {
     pub to: Port,
 }
 
+/// An iteration-memory channel: `to` reads during trial k what `from` wrote during trial
+/// k − 1, after the update.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemoryChannel {
+    pub link: Link,
+    /// The robust update between trials; `None` is the paper's update (the values written
+    /// become the values read, bit for bit).
+    pub update: Option<UpdateSettings>,
+}
+
 /// What to record.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
@@ -213,7 +252,7 @@ pub struct Scenario {
     /// FMUs in stepping (Gauss–Seidel) order.
     pub fmus: Vec<FmuSpec>,
     pub connections: Vec<Link>,
-    pub memory: Vec<Link>,
+    pub memory: Vec<MemoryChannel>,
     pub record: Record,
     pub metrics: Option<Metrics>,
     /// `memory_limit_mib`: the most memory a campaign may take, MiB (default: the
@@ -361,19 +400,34 @@ impl Scenario {
             check_link(&cx, &mds, c, &from, &to, "connection")?;
             connections.push(Link { from, to });
         }
+        let raw_memory: Vec<RawLink> = raw
+            .memory
+            .iter()
+            .map(|m| RawLink {
+                from: m.from.clone(),
+                to: m.to.clone(),
+            })
+            .collect();
         let mut memory = Vec::new();
-        for c in &raw.memory {
+        for (c, m) in raw_memory.iter().zip(&raw.memory) {
             let from = resolve(&c.from, "memory from")?;
             let to = resolve(&c.to, "memory to")?;
             check_link(&cx, &mds, c, &from, &to, "memory channel")?;
-            memory.push(Link { from, to });
+            let update = match &m.update {
+                None => None,
+                Some(u) => Some(parse_update(&cx, u, steps, h)?),
+            };
+            memory.push(MemoryChannel {
+                link: Link { from, to },
+                update,
+            });
         }
         // An input fed twice would silently depend on the order of the entries.
         let mut fed = BTreeSet::new();
         for (link, raw_link) in connections
             .iter()
-            .chain(&memory)
-            .zip(raw.connections.iter().chain(&raw.memory))
+            .chain(memory.iter().map(|m| &m.link))
+            .zip(raw.connections.iter().chain(&raw_memory))
         {
             for vr in &link.to.value_references {
                 if !fed.insert((link.to.fmu, *vr)) {
@@ -506,6 +560,115 @@ impl Scenario {
     pub fn time(&self, n: usize) -> f64 {
         self.start_time + n as f64 * self.step_size
     }
+}
+
+/// Validates `[memory.update]` for trials of `steps` samples of `h` s.
+fn parse_update(
+    cx: &Ctx<'_>,
+    u: &Spanned<RawUpdate>,
+    steps: usize,
+    h: f64,
+) -> Result<UpdateSettings, ScenarioError> {
+    let r = u.get_ref();
+    let mut settings = UpdateSettings::default();
+    let finite = |v: &Option<Spanned<f64>>, name: &str, default: f64| match v {
+        None => Ok(default),
+        Some(x) if x.get_ref().is_finite() => Ok(*x.get_ref()),
+        Some(x) => cx.err(
+            x.span(),
+            format!(
+                "memory.update.{name} = {} must be a finite number",
+                x.get_ref()
+            ),
+        ),
+    };
+    settings.forgetting = finite(&r.forgetting, "forgetting", 1.0)?;
+    settings.gain = finite(&r.gain, "gain", 1.0)?;
+    if let Some(lead) = &r.lead {
+        let l = *lead.get_ref();
+        if l < 0 {
+            return cx.err(
+                lead.span(),
+                format!("memory.update.lead = {l} must not be negative (samples of phase lead)"),
+            );
+        }
+        if l as u64 >= steps as u64 {
+            return cx.err(
+                lead.span(),
+                format!(
+                    "memory.update.lead = {l} must be less than the {steps} samples of a trial"
+                ),
+            );
+        }
+        settings.lead = l as usize;
+    }
+    match &r.filter {
+        None => {
+            if let Some(span) = r
+                .order
+                .as_ref()
+                .map(|o| o.span())
+                .or(r.cutoff.as_ref().map(|c| c.span()))
+            {
+                return cx.err(
+                    span,
+                    "memory.update: order and cutoff need filter = \"butterworth\"",
+                );
+            }
+        }
+        Some(f) if f.get_ref() == "butterworth" => {
+            let Some(order) = &r.order else {
+                return cx.err(
+                    f.span(),
+                    "memory.update: filter = \"butterworth\" needs order (>= 1)",
+                );
+            };
+            let Some(cutoff) = &r.cutoff else {
+                return cx.err(
+                    f.span(),
+                    "memory.update: filter = \"butterworth\" needs cutoff (Hz)",
+                );
+            };
+            let o = *order.get_ref();
+            if !(1..=ckcm::learning::MAX_ORDER as i64).contains(&o) {
+                return cx.err(
+                    order.span(),
+                    format!(
+                        "memory.update.order = {o} must be between 1 and {}",
+                        ckcm::learning::MAX_ORDER
+                    ),
+                );
+            }
+            let fc = *cutoff.get_ref();
+            let nyquist = 0.5 / h;
+            if !(fc.is_finite() && fc > 0.0 && fc < nyquist) {
+                return cx.err(
+                    cutoff.span(),
+                    format!("memory.update.cutoff = {fc} Hz must lie strictly between 0 and the Nyquist frequency 1/(2·step_size) = {nyquist} Hz"),
+                );
+            }
+            if steps <= 2 * o as usize {
+                return cx.err(
+                    order.span(),
+                    format!("memory.update: a zero-phase filter of order {o} needs more than {} samples per trial, there are {steps}", 2 * o),
+                );
+            }
+            settings.filter = Some(LowPass {
+                order: o as usize,
+                cutoff_hz: fc,
+            });
+        }
+        Some(f) => {
+            return cx.err(
+                f.span(),
+                format!(
+                    "memory.update.filter {:?} is unknown: the only filter is \"butterworth\"",
+                    f.get_ref()
+                ),
+            );
+        }
+    }
+    Ok(settings)
 }
 
 fn parse_trajectory(
