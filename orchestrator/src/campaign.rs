@@ -372,7 +372,7 @@ pub fn memory_estimate(scenario: &Scenario) -> u64 {
     let memory_width: usize = scenario
         .memory
         .iter()
-        .map(|l| l.from.value_references.len())
+        .map(|l| l.link.from.value_references.len())
         .sum();
     let recorded: usize = scenario.record.ports.iter().map(|p| p.names.len()).sum();
     let rows = (steps / scenario.record.interval as f64).ceil();

@@ -40,7 +40,7 @@ struct RawScenario {
     #[serde(default = "no_record")]
     record: RawRecord,
     #[serde(default)]
-    metrics: Option<RawMetrics>,
+    metrics: Option<Spanned<RawMetrics>>,
     /// Refuse to run beyond this estimated memory, MiB (see `campaign::check_memory`).
     #[serde(default)]
     memory_limit_mib: Option<Spanned<u64>>,
@@ -118,7 +118,15 @@ struct RawRecord {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMetrics {
-    error: Spanned<String>,
+    /// Six leg errors computed by an FMU.
+    #[serde(default)]
+    error: Option<Spanned<String>>,
+    /// Six desired leg lengths; with `length`, the error is reference − length.
+    #[serde(default)]
+    reference: Option<Spanned<String>>,
+    /// Six true (noise-free) leg lengths.
+    #[serde(default)]
+    length: Option<Spanned<String>>,
     #[serde(default = "default_rho")]
     rho: Spanned<f64>,
     #[serde(default)]
@@ -158,12 +166,31 @@ pub enum Value {
     Boolean(bool),
 }
 
-/// One parameter (or input start value) assignment.
+/// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setting {
     pub name: String,
     pub value_reference: u32,
+    /// The value in trial 0.
     pub value: Value,
+    /// Added once per trial, of the same type as `value`: trial k gets value + k·per_trial
+    /// (`{ base = …, per_trial = … }` in the scenario; `None`: the same in every trial).
+    pub per_trial: Option<Value>,
+}
+
+impl Setting {
+    /// The value set before trial `k` (docs/model.md §10). Integer values were checked at
+    /// validation to fit every trial of the scenario.
+    pub fn value_in_trial(&self, k: usize) -> Value {
+        match (self.value, self.per_trial) {
+            (Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
+                (i64::from(base) + k as i64 * i64::from(step))
+                    .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+            ),
+            (Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
+            (v, _) => v,
+        }
+    }
 }
 
 /// One FMU of the scenario.
@@ -226,11 +253,31 @@ impl Record {
     }
 }
 
+/// Where the six leg errors of the metrics come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LegError {
+    /// An FMU's error outputs (e.g. the controller's, which see the measured lengths).
+    Output(Port),
+    /// reference − length, sample by sample: with the plant's noise-free `length_true`, the
+    /// true error even when the measurements are noisy (docs/model.md §10).
+    Difference { reference: Port, length: Port },
+}
+
+impl LegError {
+    /// The ports the master taps: the error, or the reference then the length.
+    pub fn ports(&self) -> Vec<&Port> {
+        match self {
+            LegError::Output(p) => vec![p],
+            LegError::Difference { reference, length } => vec![reference, length],
+        }
+    }
+}
+
 /// What the per-trial summary measures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Metrics {
     /// Six leg errors.
-    pub error: Port,
+    pub error: LegError,
     /// λ-norm weight ρ, 1/s.
     pub rho: f64,
     /// Platform pose (x, y, z, ...) for the Cartesian path error.
@@ -356,7 +403,8 @@ impl Scenario {
                 ),
             );
         }
-        if *raw.trials.get_ref() == 0 {
+        let trials = *raw.trials.get_ref();
+        if trials == 0 {
             return cx.err(raw.trials.span(), "trials must be at least 1");
         }
         if raw.fmus.is_empty() {
@@ -383,7 +431,7 @@ impl Scenario {
             };
             let mut settings = Vec::new();
             for (key, value) in &f.parameters {
-                settings.extend(parameter_settings(&cx, &md, key, value)?);
+                settings.extend(parameter_settings(&cx, &md, key, value, trials)?);
             }
             fmus.push(FmuSpec {
                 name: name.clone(),
@@ -473,7 +521,6 @@ impl Scenario {
                 "record.interval must be at least 1",
             );
         }
-        let trials = *raw.trials.get_ref();
         let rec_trials = match &raw.record.trials {
             None => None,
             Some(t) => {
@@ -491,17 +538,35 @@ impl Scenario {
         };
         let metrics = match &raw.metrics {
             None => None,
-            Some(m) => {
-                let error = resolve(&m.error, "metrics.error")?;
-                if error.names.len() != 6 || error.var_type != VarType::Real {
-                    return cx.err(
-                        m.error.span(),
-                        format!(
-                            "metrics.error {:?} must be six Real variables (one per leg)",
-                            m.error.get_ref()
-                        ),
-                    );
-                }
+            Some(spanned) => {
+                let m = spanned.get_ref();
+                let six = |r: &Spanned<String>, what: &str| {
+                    let port = resolve(r, what)?;
+                    if port.names.len() != 6 || port.var_type != VarType::Real {
+                        return cx.err(
+                            r.span(),
+                            format!(
+                                "{what} {:?} must be six Real variables (one per leg)",
+                                r.get_ref()
+                            ),
+                        );
+                    }
+                    Ok(port)
+                };
+                let error = match (&m.error, &m.reference, &m.length) {
+                    (Some(e), None, None) => LegError::Output(six(e, "metrics.error")?),
+                    (None, Some(r), Some(l)) => LegError::Difference {
+                        reference: six(r, "metrics.reference")?,
+                        length: six(l, "metrics.length")?,
+                    },
+                    _ => {
+                        return cx.err(
+                            spanned.span(),
+                            "[metrics] needs either error = \"fmu.error\" or both reference = \"fmu.length_ref\" \
+                             and length = \"fmu.length_true\" (the true error reference − length), not a mix",
+                        );
+                    }
+                };
                 let rho = *m.rho.get_ref();
                 if !(rho.is_finite() && rho >= 0.0) {
                     return cx.err(
@@ -524,7 +589,7 @@ impl Scenario {
                     Some(t) => Some(parse_trajectory(&cx, t)?),
                 };
                 if pose.is_some() != trajectory.is_some() {
-                    return cx.err(m.error.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
+                    return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
                 }
                 Some(Metrics {
                     error,
@@ -861,6 +926,7 @@ fn parameter_settings(
     md: &ModelDescription,
     key: &Spanned<String>,
     value: &Spanned<toml::Value>,
+    trials: usize,
 ) -> Result<Vec<Setting>, ScenarioError> {
     let name = key.get_ref();
     let vars = scalars(md, name);
@@ -904,6 +970,16 @@ fn parameter_settings(
                 format!("{:?} expects {expected}, got {x}", v.name),
             )
         };
+        if let toml::Value::Table(table) = x {
+            let (base, step) = per_trial_values(cx, v, value.span(), table, trials)?;
+            out.push(Setting {
+                name: v.name.clone(),
+                value_reference: v.value_reference,
+                value: base,
+                per_trial: Some(step),
+            });
+            continue;
+        }
         let parsed = match (&v.kind, x) {
             (VariableKind::Real { .. }, toml::Value::Float(f)) => Value::Real(*f),
             (VariableKind::Real { .. }, toml::Value::Integer(i)) => Value::Real(*i as f64),
@@ -959,6 +1035,7 @@ fn parameter_settings(
             name: v.name.clone(),
             value_reference: v.value_reference,
             value: parsed,
+            per_trial: None,
         });
     }
     Ok(out)
@@ -1034,6 +1111,96 @@ pub fn check_value(
     Ok(())
 }
 
+/// A per-trial value `{ base = B, per_trial = S }` of a Real or Integer variable: B in
+/// trial 0, B + k·S in trial k. Every trial's value must fit the variable's type and its
+/// declared min/max, checked here so that a campaign never fails at trial 37.
+fn per_trial_values(
+    cx: &Ctx<'_>,
+    v: &fmi2::md::ScalarVariable,
+    span: std::ops::Range<usize>,
+    table: &toml::Table,
+    trials: usize,
+) -> Result<(Value, Value), ScenarioError> {
+    let name = &v.name;
+    if let Some(k) = table
+        .keys()
+        .find(|k| !matches!(k.as_str(), "base" | "per_trial"))
+    {
+        return cx.err(
+            span,
+            format!(
+                "{name:?}: unknown key {k:?} in a per-trial value (expected base and per_trial)"
+            ),
+        );
+    }
+    let (Some(base), Some(step)) = (table.get("base"), table.get("per_trial")) else {
+        return cx.err(
+            span,
+            format!("{name:?}: a per-trial value needs both base and per_trial, e.g. {{ base = 1000, per_trial = 1 }}"),
+        );
+    };
+    let last = (trials - 1) as i64;
+    match &v.kind {
+        VariableKind::Integer { min, max, .. } => {
+            let (toml::Value::Integer(b), toml::Value::Integer(s)) = (base, step) else {
+                return cx.err(
+                    span,
+                    format!("{name:?} is an Integer: base and per_trial must be integers"),
+                );
+            };
+            let lo = i64::from(min.unwrap_or(i32::MIN));
+            let hi = i64::from(max.unwrap_or(i32::MAX));
+            for (k, x) in [
+                (0, Some(*b)),
+                (last, s.checked_mul(last).and_then(|d| b.checked_add(d))),
+            ] {
+                match x {
+                    Some(x) if (lo..=hi).contains(&x) => {}
+                    _ => {
+                        return cx.err(
+                            span,
+                            format!(
+                                "{name:?} = {b} + trial·{s} leaves [{lo}, {hi}] in trial {k} of 0..{last}"
+                            ),
+                        );
+                    }
+                }
+            }
+            Ok((Value::Integer(*b as i32), Value::Integer(*s as i32)))
+        }
+        VariableKind::Real { min, max, .. } => {
+            let number = |x: &toml::Value| match x {
+                toml::Value::Float(f) => Some(*f),
+                toml::Value::Integer(i) => Some(*i as f64),
+                _ => None,
+            };
+            let (Some(b), Some(s)) = (number(base), number(step)) else {
+                return cx.err(
+                    span,
+                    format!("{name:?} is Real: base and per_trial must be numbers"),
+                );
+            };
+            let lo = min.unwrap_or(f64::NEG_INFINITY);
+            let hi = max.unwrap_or(f64::INFINITY);
+            for (k, x) in [(0, b), (last, b + last as f64 * s)] {
+                if !(x.is_finite() && (lo..=hi).contains(&x)) {
+                    return cx.err(
+                        span,
+                        format!(
+                            "{name:?} = {b} + trial·{s} is {x} in trial {k}, outside [{lo}, {hi}]"
+                        ),
+                    );
+                }
+            }
+            Ok((Value::Real(b), Value::Real(s)))
+        }
+        _ => cx.err(
+            span,
+            format!("{name:?}: per-trial values are for Real and Integer variables only"),
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1047,6 +1214,9 @@ mod tests {
     <ScalarVariable name="ur" valueReference="2" causality="input"><Real start="0"/></ScalarVariable>
     <ScalarVariable name="yi" valueReference="1" causality="output" variability="discrete"><Integer/></ScalarVariable>
     <ScalarVariable name="ui" valueReference="2" causality="input" variability="discrete"><Integer start="0"/></ScalarVariable>
+    <ScalarVariable name="seed" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Integer start="0" min="0" max="2000"/></ScalarVariable>
+    <ScalarVariable name="sigma" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Real start="0" min="0"/></ScalarVariable>
+    <ScalarVariable name="on" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Boolean start="false"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="1"/><Unknown index="3"/></Outputs>
@@ -1078,5 +1248,81 @@ mod tests {
         );
         let err = parse("[[connection]]\nfrom = \"a.yr\"\nto = \"b.ui\"\n").unwrap_err();
         assert!(err.message.contains("types differ"), "{err}");
+    }
+
+    /// A scenario of `trials` trials whose FMU "a" gets `parameters` (TOML lines).
+    fn with_parameters(trials: usize, parameters: &str) -> Result<Scenario, ScenarioError> {
+        let text = format!(
+            "step_size = 0.1\nstop_time = 1.0\ntrials = {trials}\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n[fmu.parameters]\n{parameters}"
+        );
+        Scenario::parse(&text, Path::new("s.toml"), |_| {
+            ModelDescription::parse(MD).map_err(|e| e.to_string())
+        })
+    }
+
+    #[test]
+    fn per_trial_values_step_once_per_trial() {
+        let sc = with_parameters(
+            5,
+            "seed = { base = 1000, per_trial = 1 }\nsigma = { base = 1e-6, per_trial = 0.5e-6 }\non = true\n",
+        )
+        .unwrap();
+        let get = |name: &str| {
+            sc.fmus[0]
+                .settings
+                .iter()
+                .find(|s| s.name == name)
+                .unwrap()
+                .clone()
+        };
+        let seeds: Vec<Value> = (0..5).map(|k| get("seed").value_in_trial(k)).collect();
+        assert_eq!(seeds, (1000..1005).map(Value::Integer).collect::<Vec<_>>());
+        assert_eq!(get("sigma").value_in_trial(0), Value::Real(1e-6));
+        assert_eq!(
+            get("sigma").value_in_trial(4),
+            Value::Real(1e-6 + 4.0 * 0.5e-6)
+        );
+        // A plain value is the same in every trial.
+        assert_eq!(get("on").per_trial, None);
+        assert_eq!(get("on").value_in_trial(3), Value::Boolean(true));
+    }
+
+    #[test]
+    fn bad_per_trial_values_name_the_line_and_the_problem() {
+        let cases = [
+            ("seed = { base = 1000 }\n", "needs both base and per_trial"),
+            (
+                "seed = { base = 1, per_trial = 1, step = 2 }\n",
+                "unknown key \"step\"",
+            ),
+            ("seed = { base = 1.5, per_trial = 1 }\n", "must be integers"),
+            // 1000 + 9·200 = 2800 exceeds the declared max 2000 in the last trial.
+            ("seed = { base = 1000, per_trial = 200 }\n", "in trial 9"),
+            (
+                "seed = { base = 5, per_trial = -1 }\n",
+                "leaves [0, 2000] in trial 9",
+            ),
+            (
+                "sigma = { base = 0.0, per_trial = -1.0 }\n",
+                "outside [0, inf]",
+            ),
+            (
+                "sigma = { base = \"x\", per_trial = 1 }\n",
+                "must be numbers",
+            ),
+            (
+                "on = { base = 1, per_trial = 1 }\n",
+                "Real and Integer variables only",
+            ),
+        ];
+        for (line, expected) in cases {
+            let err = with_parameters(10, line).unwrap_err();
+            assert_eq!(err.line, Some(8), "{line}: {err}");
+            assert!(err.message.contains(expected), "{line}: {err}");
+        }
+        // The i32 range is checked without overflow, also for huge steps.
+        let err = with_parameters(3, "seed = { base = 0, per_trial = 9223372036854775807 }\n")
+            .unwrap_err();
+        assert!(err.message.contains("in trial 2"), "{err}");
     }
 }
