@@ -9,6 +9,7 @@
 
 pub mod closed_loop;
 pub mod control;
+pub mod convergence;
 pub mod dynamics;
 pub mod integrate;
 pub mod kinematics;

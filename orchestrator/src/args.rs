@@ -23,6 +23,9 @@ pub enum Command {
     Info(InfoArgs),
     /// Reproduce the paper's simulation study: line and circle, PID / PD-type ILC / HLCS.
     Paper(PaperArgs),
+    /// Predict whether learning converges for a scenario, per leg-space mode and frequency,
+    /// and the largest safe Q-filter cutoff for its lead (docs/convergence.md).
+    Analyze(AnalyzeArgs),
 }
 
 /// `run`.
@@ -127,4 +130,43 @@ pub struct PaperArgs {
     /// depend on it.
     #[arg(long)]
     pub jobs: Option<usize>,
+}
+
+/// `analyze`. The update settings come from the scenario's first `[[memory]]` channel
+/// (`[memory.update]`); the options below override them.
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// The scenario file (TOML).
+    pub scenario: PathBuf,
+    /// Output directory for convergence.csv, convergence.svg and summary.md
+    /// (default: results/<scenario file stem>-convergence). The summary also goes to stdout.
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Butterworth order N_Q of the filter (default: the scenario's, else 4).
+    #[arg(long)]
+    pub order: Option<u32>,
+    /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
+    #[arg(long, conflicts_with = "no_filter")]
+    pub cutoff: Option<f64>,
+    /// Analyse without the filter, whatever the scenario says.
+    #[arg(long)]
+    pub no_filter: bool,
+    /// Lead δ, samples.
+    #[arg(long)]
+    pub lead: Option<usize>,
+    /// Forgetting factor α.
+    #[arg(long)]
+    pub forgetting: Option<f64>,
+    /// Gain g on the learning increment.
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Scale the controller's learning gains Φ, Γ, Ψ (default 1).
+    #[arg(long, default_value_t = 1.0)]
+    pub gain_scale: f64,
+    /// How long, s, a pose must last to count in the sustained-mass prediction.
+    #[arg(long, default_value_t = 1.0)]
+    pub dwell: f64,
+    /// Spacing, s, of the poses sampled along the reference.
+    #[arg(long, default_value_t = 0.005)]
+    pub stride: f64,
 }

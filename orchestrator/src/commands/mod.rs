@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod analyze;
 pub mod info;
 pub mod paper;
 pub mod run;

@@ -52,15 +52,15 @@ const COLOURS: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-const FONT: &str = "sans-serif";
+pub(super) const FONT: &str = "sans-serif";
 const TITLE_HEIGHT: u32 = 50;
 
-type DrawResult = Result<(), Box<dyn Error>>;
-type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+pub(super) type DrawResult = Result<(), Box<dyn Error>>;
+pub(super) type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 type Chart2d<'a, 'b> =
     ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-fn colour(i: usize) -> RGBColor {
+pub(super) fn colour(i: usize) -> RGBColor {
     COLOURS[i % COLOURS.len()]
 }
 
@@ -256,7 +256,12 @@ where
 
 /// Renders a titled chart into memory, then writes it atomically. `draw` gets the area below
 /// the title.
-fn render<F>(path: &Path, size: (u32, u32), title: &str, draw: F) -> Result<(), OutputError>
+pub(super) fn render<F>(
+    path: &Path,
+    size: (u32, u32),
+    title: &str,
+    draw: F,
+) -> Result<(), OutputError>
 where
     F: FnOnce(&Area<'_>) -> DrawResult,
 {
@@ -365,7 +370,7 @@ where
 
 /// Splits a sequence of points into maximal runs of finite points: a NaN or infinity in
 /// either coordinate ends the current line instead of being drawn at a bogus pixel.
-fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+pub(super) fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
     let mut runs = Vec::new();
     let mut current = Vec::new();
     for p in points {
