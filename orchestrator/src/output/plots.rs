@@ -17,7 +17,7 @@ use std::ops::Range;
 use std::path::Path;
 
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::{Ranged, ValueFormatter};
+use plotters::coord::ranged1d::{KeyPointHint, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -156,7 +156,10 @@ pub fn panels(path: &Path, title: &str, panels: &[Panel<'_>]) -> Result<(), Outp
     if panels.is_empty() {
         return Err(plot_error(path, "no panels to draw"));
     }
-    let size = (FIGURE_WIDTH, TITLE_HEIGHT + PANEL_HEIGHT * panels.len() as u32);
+    let size = (
+        FIGURE_WIDTH,
+        TITLE_HEIGHT + PANEL_HEIGHT * panels.len() as u32,
+    );
     render(path, size, title, |body| {
         for (area, panel) in body.split_evenly((panels.len(), 1)).iter().zip(panels) {
             draw_panel(area, panel)?;
@@ -173,11 +176,10 @@ fn draw_panel(area: &Area<'_>, p: &Panel<'_>) -> DrawResult {
         .lines
         .iter()
         .map(|l| {
-            let pts = l
-                .x
-                .iter()
-                .zip(l.y)
-                .map(|(&x, &y)| (x, if keep(y) { y } else { f64::NAN }));
+            let pts =
+                l.x.iter()
+                    .zip(l.y)
+                    .map(|(&x, &y)| (x, if keep(y) { y } else { f64::NAN }));
             finite_runs(pts).into_iter().map(decimate_m4).collect()
         })
         .collect();
@@ -201,9 +203,8 @@ fn draw_panel(area: &Area<'_>, p: &Panel<'_>) -> DrawResult {
             None => log_range(points().map(|q| q.1))?,
         };
         let (mut b, x) = builder(x_range);
-        let chart = b.build_cartesian_2d(x, y.clone().log_scale())?;
-        let decades = (y.end / y.start).log10();
-        draw_body(chart, p, runs, &|v| log_tick(*v, decades))?;
+        let chart = b.build_cartesian_2d(x, LogAxis(y))?;
+        draw_body(chart, p, runs, &|v| log_tick(*v))?;
     } else {
         let y = match y_given {
             Some(r) => r,
@@ -258,7 +259,7 @@ where
         .x_desc(p.x_label.as_str())
         .y_desc(p.y_label.as_str())
         .x_labels(x_labels)
-        .y_labels(if p.log_y { 40 } else { 8 })
+        .y_labels(8)
         .x_label_formatter(&x_format)
         .y_label_formatter(y_format)
         .label_style((FONT, 13))
@@ -294,12 +295,7 @@ where
             chart.draw_series(LineSeries::new(run, colour.stroke_width(w)))?;
         }
         Stroke::Dashed(w) => {
-            chart.draw_series(DashedLineSeries::new(
-                run,
-                8,
-                5,
-                colour.stroke_width(w),
-            ))?;
+            chart.draw_series(DashedLineSeries::new(run, 8, 5, colour.stroke_width(w)))?;
         }
     }
     Ok(())
@@ -313,12 +309,20 @@ fn draw_legend_column(
 ) -> DrawResult {
     let mut y = 40;
     if !heading.is_empty() {
-        area.draw(&Text::new(heading.to_owned(), (8, y), (FONT, 13).into_font()))?;
+        area.draw(&Text::new(
+            heading.to_owned(),
+            (8, y),
+            (FONT, 13).into_font(),
+        ))?;
         y += 20;
     }
     for &(label, c, stroke) in entries {
         legend_sample(area, (8, y + 8), c, stroke)?;
-        area.draw(&Text::new(label.to_owned(), (38, y), (FONT, 13).into_font()))?;
+        area.draw(&Text::new(
+            label.to_owned(),
+            (38, y),
+            (FONT, 13).into_font(),
+        ))?;
         y += 20;
     }
     Ok(())
@@ -329,7 +333,11 @@ fn draw_legend_row(area: &Area<'_>, entries: &[(&str, RGBColor, Stroke)]) -> Dra
     let mut x = 20;
     for &(label, c, stroke) in entries {
         legend_sample(area, (x, 18), c, stroke)?;
-        area.draw(&Text::new(label.to_owned(), (x + 30, 10), (FONT, 14).into_font()))?;
+        area.draw(&Text::new(
+            label.to_owned(),
+            (x + 30, 10),
+            (FONT, 14).into_font(),
+        ))?;
         // About 7.5 px per character at 14 px, plus the sample and a gap.
         x += 60 + (label.chars().count() as i32) * 15 / 2;
     }
@@ -355,33 +363,97 @@ fn legend_sample(area: &Area<'_>, (x, y): (i32, i32), c: RGBColor, stroke: Strok
 /// Tick label on a linear axis spanning `span`: as many decimals as the tick spacing needs,
 /// and never "-0".
 fn linear_tick(v: f64, span: f64) -> String {
-    let step = (span / 8.0).abs();
-    let decimals = if step > 0.0 && step.is_finite() {
-        (-step.log10().floor()).clamp(0.0, 12.0) as usize
-    } else {
-        2
-    };
+    let decimals =
+        nice_step(span / 8.0).map_or(2, |step| (-step.log10().floor()).clamp(0.0, 12.0) as usize);
     no_negative_zero(format!("{v:.decimals$}"))
 }
 
-/// Tick label on a logarithmic axis covering `decades`: decades always, 2 and 5 between
-/// them when there is room; the other grid lines stay unlabelled.
-fn log_tick(v: f64, decades: f64) -> String {
+/// The 1-2-5 step at or above `raw`, the spacing plotters puts its ticks at.
+fn nice_step(raw: f64) -> Option<f64> {
+    let raw = raw.abs();
+    if !(raw > 0.0 && raw.is_finite()) {
+        return None;
+    }
+    let e = 10f64.powf(raw.log10().floor());
+    let m = raw / e;
+    let nice = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .find(|&c| m <= c * (1.0 + 1e-9))
+        .unwrap_or(10.0);
+    Some(nice * e)
+}
+
+/// Tick label on a logarithmic axis: plain decimals from 1e-4 to 1e4, else "2e-5".
+fn log_tick(v: f64) -> String {
     if !(v > 0.0 && v.is_finite()) {
         return String::new();
     }
     let exp = v.log10().floor();
     let mantissa = (v / 10f64.powf(exp) * 1e6).round() / 1e6;
-    let labelled = mantissa == 1.0 || (decades <= 4.5 && (mantissa == 2.0 || mantissa == 5.0));
-    if !labelled {
-        return String::new();
-    }
     if (-4.0..=4.0).contains(&exp) {
         let decimals = (-exp).max(0.0) as usize;
         format!("{v:.decimals$}")
     } else {
         format!("{mantissa}e{exp}")
     }
+}
+
+/// A logarithmic axis whose ticks we choose: plotters' own log axis labels the next decade
+/// twice and drops the lowest one when the range starts exactly on a decade. Labelled ticks
+/// are 1, 2, 5 per decade over up to four decades, else decades; grid lines at 1..9 per
+/// decade over up to six decades.
+#[derive(Debug, Clone)]
+struct LogAxis(Range<f64>);
+
+impl Ranged for LogAxis {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        let (lo, hi) = (self.0.start.ln(), self.0.end.ln());
+        let f = (v.ln() - lo) / (hi - lo);
+        let f = if f.is_finite() {
+            f.clamp(-10.0, 10.0)
+        } else {
+            -10.0
+        };
+        limit.0 + (f * f64::from(limit.1 - limit.0)).round() as i32
+    }
+
+    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        log_ticks(&self.0, hint.weight().allow_light_points())
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.0.clone()
+    }
+}
+
+/// Tick values of a log axis over `range` (see [`LogAxis`]); `grid` asks for grid lines.
+fn log_ticks(range: &Range<f64>, grid: bool) -> Vec<f64> {
+    let (lo, hi) = (range.start, range.end);
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let decades = (hi / lo).log10();
+    let mantissas: &[f64] = match (grid, decades) {
+        (true, d) if d <= 6.5 => &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+        (false, d) if d <= 4.5 => &[1.0, 2.0, 5.0],
+        _ => &[1.0],
+    };
+    let every = if decades > 12.0 { 2 } else { 1 };
+    let mut out = Vec::new();
+    for e in (first..=last).filter(|e| (e - first) % every == 0) {
+        for m in mantissas {
+            // Parse the decimal literal so a tick is exactly "0.002", not 2 × 0.001.
+            let v: f64 = format!("{m}e{e}").parse().unwrap_or(f64::NAN);
+            if v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9) {
+                out.push(v);
+            }
+        }
+    }
+    out
 }
 
 fn no_negative_zero(s: String) -> String {
@@ -392,8 +464,8 @@ fn no_negative_zero(s: String) -> String {
 }
 
 /// Desired vs actual path in three projections side by side (x–y, x–z, y–z), axes in
-/// `unit` (the caller converts, and magnifies errors if it wants them visible). Both axes of
-/// a panel span the same length, so a circle looks like a circle. `on_top` (the desired
+/// `unit` (the caller converts, and magnifies errors if it wants them visible). The x–y axes
+/// span the same length, so a circle looks like a circle. `on_top` (the desired
 /// path) is drawn after `paths`, so it stays visible; the legend is a row below the panels.
 pub fn path_projections(
     path: &Path,
@@ -419,26 +491,34 @@ pub fn path_projections(
                 })
                 .collect();
             let pts = || runs.iter().flatten().flatten();
-            let (x_range, y_range) = equal_ranges(
+            let (x_range, y_range) = (
                 linear_range(pts().map(|p| p.0))?,
                 linear_range(pts().map(|p| p.1))?,
             );
-            let span = x_range.end - x_range.start;
+            // True shape in the x–y plane; the panels with z are stretched in z, where the
+            // paths are flat, so that the height error shows.
+            let (x_range, y_range) = if (a, b) == (0, 1) {
+                equal_ranges(x_range, y_range)
+            } else {
+                (x_range, y_range)
+            };
+            let (x_span, y_span) = (x_range.end - x_range.start, y_range.end - y_range.start);
             let mut chart = ChartBuilder::on(area)
                 .caption(format!("{}–{} projection", NAMES[a], NAMES[b]), (FONT, 17))
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(70)
                 .build_cartesian_2d(x_range, y_range)?;
-            let fmt = |v: &f64| linear_tick(*v, span);
+            let x_fmt = |v: &f64| linear_tick(*v, x_span);
+            let y_fmt = |v: &f64| linear_tick(*v, y_span);
             chart
                 .configure_mesh()
                 .x_desc(format!("{} [{unit}]", NAMES[a]))
                 .y_desc(format!("{} [{unit}]", NAMES[b]))
                 .x_labels(6)
                 .y_labels(6)
-                .x_label_formatter(&fmt)
-                .y_label_formatter(&fmt)
+                .x_label_formatter(&x_fmt)
+                .y_label_formatter(&y_fmt)
                 .label_style((FONT, 13))
                 .axis_desc_style((FONT, 15))
                 .light_line_style(RGBColor(235, 235, 235))
@@ -722,7 +802,9 @@ mod tests {
             ],
         );
         assert!(
-            texts.iter().all(|t| !t.starts_with("-0") || t.parse::<f64>().is_ok_and(|v| v != 0.0)),
+            texts
+                .iter()
+                .all(|t| !t.starts_with("-0") || t.parse::<f64>().is_ok_and(|v| v != 0.0)),
             "{texts:?}"
         );
         // Six lines of 15 001 samples in two panels must be decimated to a reasonable file.
@@ -753,13 +835,29 @@ mod tests {
         };
         let leak = |v: &[f64]| -> &'static [f64] { Box::leak(v.to_vec().into_boxed_slice()) };
         let figure = vec![
-            panel("empty", false, vec![line("e", leak(&empty), leak(&empty), 0)]),
-            panel("constant", false, vec![line("c", leak(&t), leak(&constant), 0)]),
+            panel(
+                "empty",
+                false,
+                vec![line("e", leak(&empty), leak(&empty), 0)],
+            ),
+            panel(
+                "constant",
+                false,
+                vec![line("c", leak(&t), leak(&constant), 0)],
+            ),
             panel("nan", true, vec![line("n", leak(&t), leak(&nan), 0)]),
             panel("inf", false, vec![line("i", leak(&t), leak(&inf), 0)]),
             panel("tiny", true, vec![line("t", leak(&t), leak(&tiny), 0)]),
-            panel("not positive", true, vec![line("z", leak(&t), leak(&zeros), 0)]),
-            panel("short x", false, vec![line("s", leak(&t[..1]), leak(&nan), 0)]),
+            panel(
+                "not positive",
+                true,
+                vec![line("z", leak(&t), leak(&zeros), 0)],
+            ),
+            panel(
+                "short x",
+                false,
+                vec![line("s", leak(&t[..1]), leak(&nan), 0)],
+            ),
             panel("no series", false, vec![]),
         ];
         panels(&path, "degenerate", &figure).unwrap();
@@ -768,7 +866,11 @@ mod tests {
             &["empty", "e", "constant", "nan", "n", "i", "z", "no series"],
         );
         let huge = [f64::MAX, -f64::MAX];
-        let huge_panel = vec![panel("huge", false, vec![line("h", leak(&t[..2]), leak(&huge), 0)])];
+        let huge_panel = vec![panel(
+            "huge",
+            false,
+            vec![line("h", leak(&t[..2]), leak(&huge), 0)],
+        )];
         let err = panels(&path, "huge", &huge_panel).unwrap_err();
         assert!(err.to_string().contains("too large"), "{err}");
         assert!(err.to_string().contains("deg.svg"), "{err}");
@@ -796,7 +898,18 @@ mod tests {
         }];
         panels(&path, "Convergence", &figure).unwrap();
         let texts = read_texts(&path);
-        assert_has(&texts, &["Convergence", "ρ-norm [mm]", "trial", "HLCS", "0", "9", "1e-5"]);
+        assert_has(
+            &texts,
+            &[
+                "Convergence",
+                "ρ-norm [mm]",
+                "trial",
+                "HLCS",
+                "0",
+                "9",
+                "1e-5",
+            ],
+        );
         assert!(!texts.iter().any(|t| t == "0.5" || t == "8.5"), "{texts:?}");
     }
 
@@ -805,12 +918,21 @@ mod tests {
         assert_eq!(linear_tick(-0.0001, 1.0), "0.0");
         assert_eq!(linear_tick(-0.5, 1.0), "-0.5");
         assert_eq!(linear_tick(250.0, 400.0), "250");
-        assert_eq!(log_tick(0.001, 3.0), "0.001");
-        assert_eq!(log_tick(0.002, 3.0), "0.002");
-        assert_eq!(log_tick(0.003, 3.0), "");
-        assert_eq!(log_tick(0.002, 8.0), "");
-        assert_eq!(log_tick(1e-5, 8.0), "1e-5");
-        assert_eq!(log_tick(100.0, 3.0), "100");
+        assert_eq!(linear_tick(81.0, 6.0), "81");
+        assert_eq!(log_tick(0.001), "0.001");
+        assert_eq!(log_tick(0.002), "0.002");
+        assert_eq!(log_tick(2e-5), "2e-5");
+        assert_eq!(log_tick(100.0), "100");
+        assert_eq!(
+            log_ticks(&(1e-3..1.0), false),
+            vec![0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
+        );
+        assert_eq!(
+            log_ticks(&(1e-6..1.0), false),
+            vec![1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 1.0]
+        );
+        assert_eq!(log_ticks(&(0.1..1.0), true).len(), 10);
+        assert!(log_ticks(&(0.0..1.0), false).is_empty());
     }
 
     #[test]

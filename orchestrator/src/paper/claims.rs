@@ -112,7 +112,11 @@ fn read_rows(path: &Path) -> Result<Vec<(u64, BTreeMap<String, String>)>, PaperE
         let record = record.map_err(|e| csv_error(path, line, e.to_string()))?;
         rows.push((
             line,
-            header.iter().cloned().zip(record.iter().map(str::to_owned)).collect(),
+            header
+                .iter()
+                .cloned()
+                .zip(record.iter().map(str::to_owned))
+                .collect(),
         ));
     }
     Ok(rows)
@@ -137,7 +141,12 @@ fn key(
     Ok((traj_slug(kind), scheme, trial))
 }
 
-fn number(path: &Path, line: u64, row: &BTreeMap<String, String>, c: &str) -> Result<f64, PaperError> {
+fn number(
+    path: &Path,
+    line: u64,
+    row: &BTreeMap<String, String>,
+    c: &str,
+) -> Result<f64, PaperError> {
     let s = row
         .get(c)
         .ok_or_else(|| csv_error(path, line, format!("no column {c:?}")))?;
@@ -309,18 +318,21 @@ pub fn grade(t: &Tables) -> Result<Grades, PaperError> {
     g.mm("c1.h0_steady", steady_abs(&h0));
     g.mm("c1.h2_steady", steady_abs(&h2));
     g.pct("c1.steady_pct", steady_abs(&h2) / steady_abs(&h0));
-    let a1 = g.part(
-        "c1.a1",
-        h2.transient_max <= MARKED * h0.transient_max,
-    );
+    let a1 = g.part("c1.a1", h2.transient_max <= MARKED * h0.transient_max);
     let a2 = g.part("c1.a2", steady_abs(&h2) <= MARKED * steady_abs(&h0));
     let level = t.conv(line, hl, 2)?.max;
     g.mm("c1.level", level);
     let pd_max = t.max_series(line, pd);
     let reach = pd_max.iter().position(|&e| e <= COMPARABLE * level);
-    g.set("c1.pd_reach", reach.map_or("none of the trials".into(), |k| format!("trial {k}")));
+    g.set(
+        "c1.pd_reach",
+        reach.map_or("none of the trials".into(), |k| format!("trial {k}")),
+    );
     g.mm("c1.pd2", pd_max.get(2).copied().unwrap_or(f64::NAN));
-    g.pct("c1.pd2_ratio", pd_max.get(2).copied().unwrap_or(f64::NAN) / level - 1.0);
+    g.pct(
+        "c1.pd2_ratio",
+        pd_max.get(2).copied().unwrap_or(f64::NAN) / level - 1.0,
+    );
     let b = g.part("c1.b", reach == Some(4));
     g.verdict(1, &[a1, a2, b]);
 
@@ -332,20 +344,33 @@ pub fn grade(t: &Tables) -> Result<Grades, PaperError> {
     g.pct("c2.h_settle_pct", steady_abs(&h2) / h2.transient_max);
     let a = g.part("c2.a", settled(&h2));
     let ratio = h2.steady_mean / PAPER_STEADY;
+    g.set("c2.mean_factor", format!("{:.0}", 1.0 / ratio.abs()));
     g.set(
-        "c2.mean_factor",
-        format!("{:.0}", 1.0 / ratio.abs()),
+        "c2.mean_sign",
+        if h2.steady_mean < 0.0 {
+            "negative, like the paper's"
+        } else {
+            "positive, unlike the paper's"
+        },
     );
-    g.set("c2.mean_sign", if h2.steady_mean < 0.0 { "negative, like the paper's" } else { "positive, unlike the paper's" });
-    g.set("c2.abs_factor", format!("{:.0}", PAPER_STEADY.abs() / steady_abs(&h2)));
-    let b = g.part("c2.b", ratio > 0.0 && (1.0 / APPROX..=APPROX).contains(&ratio));
+    g.set(
+        "c2.abs_factor",
+        format!("{:.0}", PAPER_STEADY.abs() / steady_abs(&h2)),
+    );
+    let b = g.part(
+        "c2.b",
+        ratio > 0.0 && (1.0 / APPROX..=APPROX).contains(&ratio),
+    );
     let p2 = t.metrics(line, pid, 2)?;
     let d2 = t.metrics(line, pd, 2)?;
     for (name, m) in [("pid", &p2), ("pd", &d2)] {
         g.mm(&format!("c2.{name}_transient"), m.transient_max);
         g.mm(&format!("c2.{name}_lo"), m.steady_min);
         g.mm(&format!("c2.{name}_hi"), m.steady_max);
-        g.pct(&format!("c2.{name}_settle_pct"), steady_abs(m) / m.transient_max);
+        g.pct(
+            &format!("c2.{name}_settle_pct"),
+            steady_abs(m) / m.transient_max,
+        );
     }
     let c = g.part("c2.c", !settled(&p2));
     let d = g.part("c2.d", !settled(&d2));
@@ -371,13 +396,19 @@ pub fn grade(t: &Tables) -> Result<Grades, PaperError> {
     );
     g.set(
         "c3.pd_vs_hlcs_path",
-        format!("{:.2e}", (d3.transient_path_max / h3.transient_path_max - 1.0).abs()),
+        format!(
+            "{:.2e}",
+            (d3.transient_path_max / h3.transient_path_max - 1.0).abs()
+        ),
     );
     let largest = |x: f64, others: [f64; 2]| others.iter().all(|&o| x >= (1.0 + MARGIN) * o);
     let b = g.part(
         "c3.b",
         largest(d3.transient_max, [h3.transient_max, p3.transient_max])
-            && largest(d3.transient_path_max, [h3.transient_path_max, p3.transient_path_max]),
+            && largest(
+                d3.transient_path_max,
+                [h3.transient_path_max, p3.transient_path_max],
+            ),
     );
     let hc = t.max_series(circle, hl);
     g.mm("c3.h0", hc[0]);
@@ -431,7 +462,9 @@ fn worse_than_pid(t: &Tables, g: &mut Grades) -> Result<(), PaperError> {
     g.set("w.last", (h.len() - 1).to_string());
     g.mm("w.last_max", h[h.len() - 1]);
     let growth: Vec<f64> = h[best..].windows(2).map(|w| w[1] / w[0]).collect();
-    let (lo, hi) = growth.iter().fold((f64::INFINITY, 0.0_f64), |(l, u), &x| (l.min(x), u.max(x)));
+    let (lo, hi) = growth
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(l, u), &x| (l.min(x), u.max(x)));
     g.set(
         "w.growth",
         if growth.is_empty() {
@@ -490,12 +523,16 @@ fn rho_dependence(t: &Tables, g: &mut Grades) {
     for kind in [TrajectoryKind::Line, TrajectoryKind::Circle] {
         let s = traj_slug(kind);
         let max = t.max_series(kind, Scheme::Hlcs);
-        let max_best = (0..max.len()).min_by(|&a, &b| max[a].total_cmp(&max[b])).unwrap_or(0);
+        let max_best = (0..max.len())
+            .min_by(|&a, &b| max[a].total_cmp(&max[b]))
+            .unwrap_or(0);
         g.set(&format!("rho.{s}.max_best"), max_best.to_string());
         for (i, rho) in RHOS.iter().enumerate() {
             let l = t.lambda_series(kind, Scheme::Hlcs, i);
             let falls = l.windows(2).all(|w| w[1] < w[0]);
-            let best = (0..l.len()).min_by(|&a, &b| l[a].total_cmp(&l[b])).unwrap_or(0);
+            let best = (0..l.len())
+                .min_by(|&a, &b| l[a].total_cmp(&l[b]))
+                .unwrap_or(0);
             let key = format!("rho.{s}.{rho}");
             g.set(
                 &key,

@@ -7,7 +7,9 @@ use std::path::Path;
 use ckcm::{Trajectory, TrajectoryKind};
 
 use super::cases::{CaseResult, Scheme, TRAJECTORIES, figure_number, traj_slug};
-use super::metrics::{HIGH_HZ, RHOS, TRANSIENT_END, TrialMetrics, error_spectrum, leg_errors, path_error};
+use super::metrics::{
+    HIGH_HZ, RHOS, TRANSIENT_END, TrialMetrics, error_spectrum, leg_errors, path_error,
+};
 use super::{PaperError, PaperOptions};
 use crate::campaign::TrialSummary;
 use crate::output::Recording;
@@ -42,7 +44,13 @@ pub fn claim_trial(kind: TrajectoryKind) -> usize {
 fn find(data: &[CaseData], kind: TrajectoryKind, scheme: Scheme) -> Result<&CaseData, PaperError> {
     data.iter()
         .find(|d| d.result.trajectory == kind && d.result.scheme == scheme)
-        .ok_or_else(|| PaperError::Invalid(format!("{} / {} did not run", traj_slug(kind), scheme.slug())))
+        .ok_or_else(|| {
+            PaperError::Invalid(format!(
+                "{} / {} did not run",
+                traj_slug(kind),
+                scheme.slug()
+            ))
+        })
 }
 
 fn recording(d: &CaseData, k: usize) -> Result<&Recording, PaperError> {
@@ -127,7 +135,10 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let n = d.recordings.len();
     // PID does not learn: every trial is trial 0 (checked on the summaries), so one line.
     let identical = !scheme.learning()
-        && d.result.summaries.windows(2).all(|w| summaries_equal(&w[0], &w[1]));
+        && d.result
+            .summaries
+            .windows(2)
+            .all(|w| summaries_equal(&w[0], &w[1]));
     let shown: Vec<&(usize, Recording)> = if identical {
         d.recordings.iter().take(1).collect()
     } else {
@@ -149,7 +160,10 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let kc = claim_trial(kind);
     let rec = recording(d, kc)?;
     let from = rec.time.partition_point(|&t| t < TRANSIENT_END);
-    let signed: Vec<Vec<f64>> = leg_errors(rec).iter().map(|e| scale(&e[from..], 1e3)).collect();
+    let signed: Vec<Vec<f64>> = leg_errors(rec)
+        .iter()
+        .map(|e| scale(&e[from..], 1e3))
+        .collect();
     let bottom_lines: Vec<Line<'_>> = signed
         .iter()
         .enumerate()
@@ -182,11 +196,17 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
                 y_label: "|e| [mm]".into(),
                 log_y: true,
                 lines: top_lines,
-                legend_title: if identical { String::new() } else { "trial (dark → light)".into() },
+                legend_title: if identical {
+                    String::new()
+                } else {
+                    "trial (dark → light)".into()
+                },
                 ..Panel::default()
             },
             Panel {
-                title: format!("trial {kc}, t ≥ {TRANSIENT_END} s (after the transient): leg errors"),
+                title: format!(
+                    "trial {kc}, t ≥ {TRANSIENT_END} s (after the transient): leg errors"
+                ),
                 x_label: "time [s]".into(),
                 y_label: "e = l_d − l [mm]".into(),
                 lines: bottom_lines,
@@ -219,7 +239,11 @@ fn round_125(v: f64) -> f64 {
         return 1.0;
     }
     let e = 10f64.powf(v.log10().floor());
-    [5.0, 2.0, 1.0].into_iter().map(|m| m * e).find(|&c| c <= v).unwrap_or(e)
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * e)
+        .find(|&c| c <= v)
+        .unwrap_or(e)
 }
 
 /// Fig. 6/7 d: desired vs actual path of the three schemes in the claims' trial, with the
@@ -237,7 +261,9 @@ fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<()
         for a in 0..3 {
             let (lo, hi) = desired
                 .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[a]), h.max(p[a])));
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                    (l.min(p[a]), h.max(p[a]))
+                });
             s = s.max(hi - lo);
         }
         s
@@ -247,14 +273,18 @@ fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<()
     for scheme in Scheme::ALL {
         let rec = recording(find(data, kind, scheme)?, k)?;
         let p = xyz(rec);
-        for (a, d) in p.iter().zip(&desired) {
-            let e = ((a[0] - d[0]).powi(2) + (a[1] - d[1]).powi(2) + (a[2] - d[2]).powi(2)).sqrt();
-            worst = worst.max(e);
+        if scheme == Scheme::Hlcs {
+            for (a, d) in p.iter().zip(&desired) {
+                let e =
+                    ((a[0] - d[0]).powi(2) + (a[1] - d[1]).powi(2) + (a[2] - d[2]).powi(2)).sqrt();
+                worst = worst.max(e);
+            }
         }
         actual.push((scheme, p));
     }
-    // The largest error drawn at about 8 % of the path's extent.
-    let m = round_125(0.08 * span / worst);
+    // HLCS's largest error drawn at about 5 % of the path's extent (PID's, larger, shows
+    // magnified by the same factor).
+    let m = round_125(0.05 * span / worst);
     let lines: Vec<PathLine> = actual
         .into_iter()
         .map(|(scheme, p)| PathLine {
@@ -280,7 +310,13 @@ fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<()
         figure_number(kind),
         traj_slug(kind)
     );
-    path_projections(&file(fig, kind, "path"), &title, &lines, &desired_line, "mm")?;
+    path_projections(
+        &file(fig, kind, "path"),
+        &title,
+        &lines,
+        &desired_line,
+        "mm",
+    )?;
     Ok(())
 }
 
@@ -346,9 +382,10 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
             };
             let (f, p) = error_spectrum(&leg_errors(r), step);
             let keep = f.partition_point(|&x| x <= SPECTRUM_MAX_HZ);
-            // Amplitude in mm (square root of power), which reads more naturally.
-            let amp = p[..keep].iter().map(|v| v.sqrt() * 1e3).collect();
-            (*k, f[..keep].to_vec(), amp)
+            // Amplitude in mm (square root of power), which reads more naturally; the 0 Hz
+            // bin is empty after removing the mean, so it is left out.
+            let amp = p[1..keep.max(1)].iter().map(|v| v.sqrt() * 1e3).collect();
+            (*k, f[1..keep.max(1)].to_vec(), amp)
         })
         .collect();
     let lines: Vec<Line<'_>> = spectra
@@ -379,7 +416,7 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         &[Panel {
             title: "amplitude spectrum, six legs combined, mean removed".into(),
             x_label: "frequency [Hz]".into(),
-            y_label: "amplitude [mm·√s]".into(),
+            y_label: "|E(f)|/√N [mm]".into(),
             log_y: true,
             x_range: Some(0.0..SPECTRUM_MAX_HZ),
             lines,
@@ -529,7 +566,10 @@ fn learned_input_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
                 ..Panel::default()
             },
             Panel {
-                title: format!("all legs: u{} (after trial {k_last})", subscript(k_last + 1)),
+                title: format!(
+                    "all legs: u{} (after trial {k_last})",
+                    subscript(k_last + 1)
+                ),
                 x_label: "time [s]".into(),
                 y_label: "u [N]".into(),
                 lines: bottom,
@@ -555,7 +595,11 @@ fn convergence_figures(fig: &Path, data: &[CaseData]) -> Result<(), PaperError> 
     let rho = |i: usize| RHOS[i];
     let figures: [(&str, String, &str, Pick); 4] = [
         ("max", "max-norm".into(), "max |e| [mm]", |d| {
-            d.result.summaries.iter().map(|s| s.legs.overall.max).collect()
+            d.result
+                .summaries
+                .iter()
+                .map(|s| s.legs.overall.max)
+                .collect()
         }),
         (
             "lambda",
@@ -570,10 +614,18 @@ fn convergence_figures(fig: &Path, data: &[CaseData]) -> Result<(), PaperError> 
             |d| lambda_series(d, 1),
         ),
         ("rms", "RMS".into(), "RMS e [mm]", |d| {
-            d.result.summaries.iter().map(|s| s.legs.overall.rms).collect()
+            d.result
+                .summaries
+                .iter()
+                .map(|s| s.legs.overall.rms)
+                .collect()
         }),
     ];
-    let trials = data.iter().map(|d| d.result.summaries.len()).max().unwrap_or(1);
+    let trials = data
+        .iter()
+        .map(|d| d.result.summaries.len())
+        .max()
+        .unwrap_or(1);
     let ks: Vec<f64> = (0..trials).map(|k| k as f64).collect();
     for (slug, name, y_label, pick) in figures {
         let series: Vec<(TrajectoryKind, Scheme, Vec<f64>)> = data
@@ -606,7 +658,10 @@ fn convergence_figures(fig: &Path, data: &[CaseData]) -> Result<(), PaperError> 
                         .unwrap_or_default()
                 };
                 let (h, p) = (get(Scheme::Hlcs), get(Scheme::PdIlc));
-                (kind, h.iter().zip(&p).map(|(h, p)| (h / p - 1.0) * 1e6).collect())
+                (
+                    kind,
+                    h.iter().zip(&p).map(|(h, p)| (h / p - 1.0) * 1e6).collect(),
+                )
             })
             .collect();
         let bottom: Vec<Line<'_>> = ratio

@@ -231,8 +231,14 @@ mod tests {
     fn spectrum_finds_a_sine_and_its_high_frequency_share() {
         let h = 1e-3;
         let t: Vec<f64> = (0..5000).map(|i| f64::from(i) * h).collect();
-        let slow: Vec<f64> = t.iter().map(|t| 0.3 + (std::f64::consts::TAU * 1.0 * t).sin()).collect();
-        let fast: Vec<f64> = t.iter().map(|t| 3.0 * (std::f64::consts::TAU * 6.4 * t).sin()).collect();
+        let slow: Vec<f64> = t
+            .iter()
+            .map(|t| 0.3 + (std::f64::consts::TAU * 1.0 * t).sin())
+            .collect();
+        let fast: Vec<f64> = t
+            .iter()
+            .map(|t| 3.0 * (std::f64::consts::TAU * 6.4 * t).sin())
+            .collect();
         let (f, p) = error_spectrum(&[&slow, &fast], h);
         let (dominant, high) = spectrum_summary(&f, &p, HIGH_HZ);
         assert!((dominant - 6.4).abs() < 1e-9, "{dominant}");

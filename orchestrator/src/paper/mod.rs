@@ -24,9 +24,9 @@ use ckcm::{Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
-pub use self::scenario::{recorded_trials, scenario_toml};
 use self::cases::{TRAJECTORIES, traj_slug, trial_csv};
 use self::figures::CaseData;
+pub use self::scenario::{recorded_trials, scenario_toml};
 use crate::campaign::CampaignError;
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
 use crate::scenario::ScenarioError;

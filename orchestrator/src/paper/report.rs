@@ -22,7 +22,9 @@ pub fn write_report(opts: &PaperOptions) -> Result<(), PaperError> {
     let tables = Tables::load(&opts.out_dir)?;
     let values = values(opts, &tables)?;
     let md = fill(TEMPLATE, &values)?;
-    write_atomic(&opts.out_dir.join("report.md"), |w| w.write_all(md.as_bytes()))?;
+    write_atomic(&opts.out_dir.join("report.md"), |w| {
+        w.write_all(md.as_bytes())
+    })?;
     let page = html_page(&md, &opts.out_dir)?;
     write_atomic(&opts.out_dir.join("report.html"), |w| {
         w.write_all(page.as_bytes())
@@ -157,7 +159,9 @@ figure, svg { display: block; max-width: 100%; height: auto; margin: 1em 0; }
 ";
 
 fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// The SVG file `src` (relative to `dir`) without its XML declaration, scaled to the page
@@ -186,8 +190,11 @@ mod tests {
 
     #[test]
     fn fill_replaces_keys_and_names_a_missing_one() {
-        let v: BTreeMap<String, String> =
-            [("a".to_string(), "1".to_string()), ("b.c".into(), "x".into())].into();
+        let v: BTreeMap<String, String> = [
+            ("a".to_string(), "1".to_string()),
+            ("b.c".into(), "x".into()),
+        ]
+        .into();
         assert_eq!(fill("{{a}} and {{b.c}}.", &v).unwrap(), "1 and x.");
         let e = fill("{{a}} {{nope}}", &v).unwrap_err().to_string();
         assert!(e.contains("{{nope}}"), "{e}");
@@ -200,7 +207,10 @@ mod tests {
             assert!(TEMPLATE.contains(&format!("(figures/{f})")), "{f}");
         }
         for c in 1..=4 {
-            assert!(TEMPLATE.contains(&format!("{{{{c{c}.verdict}}}}")), "claim {c}");
+            assert!(
+                TEMPLATE.contains(&format!("{{{{c{c}.verdict}}}}")),
+                "claim {c}"
+            );
         }
     }
 }
