@@ -553,3 +553,276 @@ fn rho_dependence(t: &Tables, g: &mut Grades) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::write_table_csv;
+    use crate::paper::cases::TRAJECTORIES;
+
+    type Key = (TrajectoryKind, Scheme, usize);
+
+    /// A synthetic study: every case and trial at a default, then the given overrides.
+    struct World {
+        conv: BTreeMap<(&'static str, Scheme, usize), [f64; 3]>,
+        metrics: BTreeMap<(&'static str, Scheme, usize), TrialMetrics>,
+    }
+
+    const TRIALS: usize = 10;
+
+    impl World {
+        fn new() -> Self {
+            let mut w = World {
+                conv: BTreeMap::new(),
+                metrics: BTreeMap::new(),
+            };
+            for kind in TRAJECTORIES {
+                for s in Scheme::ALL {
+                    for k in 0..TRIALS {
+                        let key = (traj_slug(kind), s, k);
+                        w.conv.insert(key, [0.5, 0.1, 0.6]);
+                        w.metrics.insert(
+                            key,
+                            TrialMetrics {
+                                trial: k,
+                                lambda: [0.1, 0.1],
+                                transient_max: 0.5,
+                                steady_min: -0.5,
+                                steady_max: 0.5,
+                                steady_mean: 0.0,
+                                transient_path_max: 0.5,
+                                dominant_hz: 1.0,
+                                above_high: 0.1,
+                                force_rms: 10.0,
+                                force_max: 20.0,
+                            },
+                        );
+                    }
+                }
+            }
+            w
+        }
+        fn max(&mut self, (kind, s, k): Key, v: f64) -> &mut Self {
+            self.conv.get_mut(&(traj_slug(kind), s, k)).unwrap()[0] = v;
+            self
+        }
+        fn m(&mut self, (kind, s, k): Key) -> &mut TrialMetrics {
+            self.metrics.get_mut(&(traj_slug(kind), s, k)).unwrap()
+        }
+        /// Writes the two CSVs as the study does and grades them.
+        fn grade(&self) -> Grades {
+            let dir = tempfile::tempdir().unwrap();
+            let conv: Vec<Vec<String>> = self
+                .conv
+                .iter()
+                .map(|((t, s, k), v)| {
+                    let mut r = vec![t.to_string(), s.slug().into(), k.to_string()];
+                    r.extend([v[0], 0.0, v[1], v[2], 0.0].map(|x| x.to_string()));
+                    r
+                })
+                .collect();
+            write_table_csv(
+                &dir.path().join("convergence.csv"),
+                &[
+                    "trajectory",
+                    "scheme",
+                    "trial",
+                    "max",
+                    "rms",
+                    "lambda",
+                    "path_max",
+                    "path_rms",
+                ],
+                &conv,
+            )
+            .unwrap();
+            let rows: Vec<(TrajectoryKind, Scheme, Vec<TrialMetrics>)> = TRAJECTORIES
+                .into_iter()
+                .flat_map(|kind| {
+                    Scheme::ALL.map(|s| {
+                        let ms = (0..TRIALS)
+                            .map(|k| self.metrics[&(traj_slug(kind), s, k)])
+                            .collect();
+                        (kind, s, ms)
+                    })
+                })
+                .collect();
+            let refs: Vec<(TrajectoryKind, Scheme, &[TrialMetrics])> = rows
+                .iter()
+                .map(|(k, s, m)| (*k, *s, m.as_slice()))
+                .collect();
+            crate::paper::metrics::write_trial_metrics(
+                &dir.path().join("trial_metrics.csv"),
+                &refs,
+            )
+            .unwrap();
+            grade(&Tables::load(dir.path()).unwrap()).unwrap()
+        }
+    }
+
+    const LINE: TrajectoryKind = TrajectoryKind::Line;
+    const CIRCLE: TrajectoryKind = TrajectoryKind::Circle;
+
+    /// A study in which everything the paper says is true.
+    fn as_the_paper_says() -> World {
+        let mut w = World::new();
+        let (pid, pd, hl) = (Scheme::Pid, Scheme::PdIlc, Scheme::Hlcs);
+        // Claim 1/2, line: HLCS at 0.03 in trial 2 and settled at −2.2 mm; PD-type ILC gets
+        // there in trial 4 and is still moving in trial 2.
+        for (k, v) in [0.5, 0.3, 0.03, 0.02, 0.01].into_iter().enumerate() {
+            w.max((LINE, hl, k), v);
+        }
+        for (k, v) in [0.5, 0.4, 0.2, 0.1, 0.032].into_iter().enumerate() {
+            w.max((LINE, pd, k), v);
+        }
+        *w.m((LINE, hl, 2)) = TrialMetrics {
+            transient_max: 0.03,
+            steady_min: -0.0025,
+            steady_max: -0.0019,
+            steady_mean: -0.0022,
+            ..w.metrics[&("line", hl, 2)]
+        };
+        w.m((LINE, pd, 2)).transient_max = 0.2;
+        w.m((LINE, pd, 2)).steady_max = 0.15;
+        w.m((LINE, pid, 2)).transient_max = 0.3;
+        // Claim 3, circle trial 3: PD-type ILC improved but with the worst transient; HLCS
+        // at 8 % of trial 0.
+        w.max((CIRCLE, pd, 0), 1.0).max((CIRCLE, pd, 3), 0.5);
+        w.max((CIRCLE, hl, 0), 1.0).max((CIRCLE, hl, 3), 0.08);
+        for (s, leg, path) in [(pd, 0.2, 0.3), (hl, 0.05, 0.06), (pid, 0.1, 0.15)] {
+            w.m((CIRCLE, s, 3)).transient_max = leg;
+            w.m((CIRCLE, s, 3)).transient_path_max = path;
+        }
+        // Claim 4: HLCS's λ-norm half of PD-type ILC's from trial 1 on, both ρ.
+        for kind in TRAJECTORIES {
+            for k in 1..TRIALS {
+                w.m((kind, hl, k)).lambda = [0.05, 0.05];
+            }
+        }
+        w
+    }
+
+    fn verdicts(g: &Grades) -> [Verdict; 4] {
+        g.verdicts.map(Option::unwrap)
+    }
+
+    #[test]
+    fn every_claim_confirmed_when_the_data_say_what_the_paper_says() {
+        let g = as_the_paper_says().grade();
+        assert_eq!(verdicts(&g), [Verdict::Confirmed; 4], "{:#?}", g.values);
+        assert_eq!(g.values["c1.pd_reach"], "trial 4");
+        assert_eq!(g.values["c3.h3_pct"], "8.0");
+    }
+
+    #[test]
+    fn each_failing_part_downgrades_its_claim_only() {
+        let (pid, pd, hl) = (Scheme::Pid, Scheme::PdIlc, Scheme::Hlcs);
+        let cases: Vec<(usize, Box<dyn Fn(&mut World)>)> = vec![
+            // PD-type ILC as fast as HLCS on the line.
+            (
+                1,
+                Box::new(move |w| {
+                    w.max((LINE, pd, 2), 0.03);
+                }),
+            ),
+            // PD-type ILC settles like HLCS.
+            (
+                2,
+                Box::new(move |w| {
+                    w.m((LINE, pd, 2)).steady_max = 0.001;
+                    w.m((LINE, pd, 2)).steady_min = -0.001;
+                }),
+            ),
+            // The steady error has the wrong sign.
+            (
+                2,
+                Box::new(move |w| {
+                    w.m((LINE, hl, 2)).steady_mean = 0.0022;
+                }),
+            ),
+            // HLCS at 13 % after three trials on the circle.
+            (
+                3,
+                Box::new(move |w| {
+                    w.max((CIRCLE, hl, 3), 0.13);
+                }),
+            ),
+            // PID has the worst transient.
+            (
+                3,
+                Box::new(move |w| {
+                    w.m((CIRCLE, pid, 3)).transient_path_max = 1.0;
+                }),
+            ),
+            // No faster on the circle.
+            (
+                4,
+                Box::new(move |w| {
+                    for k in 1..TRIALS {
+                        w.m((CIRCLE, hl, k)).lambda = [0.1, 0.1];
+                    }
+                }),
+            ),
+        ];
+        for (claim, change) in cases {
+            let mut w = as_the_paper_says();
+            change(&mut w);
+            let v = verdicts(&w.grade());
+            for (i, v) in v.iter().enumerate() {
+                let want = if i + 1 == claim {
+                    Verdict::Partly
+                } else {
+                    Verdict::Confirmed
+                };
+                assert_eq!(*v, want, "claim {} after breaking claim {claim}", i + 1);
+            }
+        }
+    }
+
+    #[test]
+    fn identical_schemes_do_not_confirm_faster_convergence() {
+        let g = World::new().grade();
+        assert_eq!(g.verdicts[3], Some(Verdict::NotConfirmed));
+        assert_eq!(g.values["c4.line"], "does not hold");
+        assert_eq!(g.values["c4.circle.rho5.spread"], "0.0e0");
+    }
+
+    #[test]
+    fn learning_worse_than_pid_is_reported_with_its_trial() {
+        let mut w = World::new();
+        for (k, v) in [1.0, 0.2, 0.1, 0.2, 0.4, 0.8, 1.6, 3.2, 6.4, 12.8]
+            .into_iter()
+            .enumerate()
+        {
+            w.max((CIRCLE, Scheme::Hlcs, k), v);
+        }
+        w.max((CIRCLE, Scheme::Pid, 0), 1.5);
+        let g = w.grade();
+        assert_eq!(g.values["w.best"], "2");
+        assert_eq!(g.values["w.growth"], "2.00–2.00×");
+        assert!(
+            g.values["w.sentence"].starts_with("From trial 6 on"),
+            "{}",
+            g.values["w.sentence"]
+        );
+    }
+
+    #[test]
+    fn a_malformed_table_names_its_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("convergence.csv"),
+            "trajectory,scheme,trial,max,lambda,path_max\nline,pid,0,0.1,0.1,0.1\nline,pid,1,x,0.1,0.1\n",
+        )
+        .unwrap();
+        let e = Tables::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("convergence.csv:3") && e.contains("max"), "{e}");
+        std::fs::write(
+            dir.path().join("convergence.csv"),
+            "trajectory,scheme,trial,max,lambda,path_max\nspiral,pid,0,0.1,0.1,0.1\n",
+        )
+        .unwrap();
+        let e = Tables::load(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("convergence.csv:2"), "{e}");
+    }
+}
