@@ -15,6 +15,7 @@ fn main() -> ExitCode {
         args::Command::Simulate(a) => commands::simulate::run(a),
         args::Command::Info(a) => commands::info::run(a),
         args::Command::Paper(a) => commands::paper::run(a),
+        args::Command::Sweep(a) => commands::sweep::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,3 +4,4 @@ pub mod info;
 pub mod paper;
 pub mod run;
 pub mod simulate;
+pub mod sweep;

@@ -8,6 +8,7 @@ mod atomic;
 mod csv;
 pub mod plots;
 mod recording;
+pub mod sweep_plots;
 
 use std::path::PathBuf;
 
