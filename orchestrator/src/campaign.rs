@@ -195,7 +195,7 @@ impl TrialSummary {
 
 /// FNV-1a, 64 bit: a stable fingerprint across builds and platforms (std's hasher is not
 /// guaranteed stable), over a handful of bytes where speed does not matter.
-fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
     bytes.iter().fold(hash, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
     })
@@ -670,7 +670,7 @@ pub fn run_campaign(
     Ok(summaries)
 }
 
-fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
+pub fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
     let mut reader =
         csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut out = Vec::new();

@@ -31,6 +31,7 @@ fn main() -> ExitCode {
         args::Command::Info(a) => commands::info::run(a),
         args::Command::Paper(a) => commands::paper::run(a),
         args::Command::Analyze(a) => commands::analyze::run(a),
+        args::Command::Sweep(a) => commands::sweep::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,6 +9,7 @@ pub mod convergence_plot;
 mod csv;
 pub mod plots;
 mod recording;
+pub mod sweep_plots;
 
 use std::path::PathBuf;
 
