@@ -5,3 +5,4 @@ pub mod info;
 pub mod paper;
 pub mod run;
 pub mod simulate;
+pub mod sweep;
