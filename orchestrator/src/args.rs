@@ -146,7 +146,7 @@ pub struct AnalyzeArgs {
     pub out: Option<PathBuf>,
     /// Butterworth order N_Q of the filter (default: the scenario's, else 4).
     #[arg(long)]
-    pub order: Option<u32>,
+    pub order: Option<usize>,
     /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
     #[arg(long, conflicts_with = "no_filter")]
     pub cutoff: Option<f64>,

@@ -7,22 +7,21 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use ckcm::convergence::{Analysis, Butterworth, Problem, Update, analyse};
+use ckcm::convergence::{Analysis, Problem, analyse, validate};
+use ckcm::learning::{LowPass, UpdateSettings};
 use ckcm::{Gains, Mechanism, Params, Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 use fmi2::md::{ModelDescription, VariableKind};
 use orchestrator::output::convergence_plot::{ModeCurves, convergence_factor};
 use orchestrator::output::{write_atomic, write_table_csv};
 use orchestrator::scenario::{FmuSpec, Scenario, Value};
-use serde::Deserialize;
-use toml::Spanned;
 
 use crate::args::AnalyzeArgs;
 
 /// Runs `analyze`.
 pub fn run(args: AnalyzeArgs) -> Result<()> {
-    let (scenario, text, fmus) = super::run::load(&args.scenario)?;
-    let problem = problem(&args, &scenario, &text, &fmus)?;
+    let (scenario, _, fmus) = super::run::load(&args.scenario)?;
+    let problem = problem(&args, &scenario, &fmus)?;
     let analysis = analyse(&problem).with_context(|| format!("{}", args.scenario.display()))?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("results").join(format!(
@@ -76,100 +75,32 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     Ok(())
 }
 
-/// The scenario's view of `[[memory]]`: only the update table, read leniently beside the
-/// scenario's own validation so that its lines can be named.
-#[derive(Debug, Deserialize)]
-struct RawFile {
-    #[serde(default)]
-    memory: Vec<RawMemory>,
-}
-
-#[derive(Debug, Deserialize)]
-struct RawMemory {
-    #[serde(default)]
-    update: Option<RawUpdate>,
-}
-
-#[derive(Debug, Deserialize)]
-struct RawUpdate {
-    filter: Option<Spanned<String>>,
-    order: Option<Spanned<i64>>,
-    cutoff: Option<Spanned<f64>>,
-    lead: Option<Spanned<i64>>,
-    forgetting: Option<Spanned<f64>>,
-    gain: Option<Spanned<f64>>,
-}
-
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
-
-/// The first memory channel's update, as written (no filter, δ 0, α 1, g 1 when absent),
-/// then the command-line overrides; invalid values are named with their file and line.
-fn update(args: &AnalyzeArgs, file: &Path, text: &str, h: f64) -> Result<Update> {
-    let raw: RawFile =
-        toml::from_str(text).with_context(|| format!("cannot read {}", file.display()))?;
-    let at =
-        |span: std::ops::Range<usize>| format!("{}:{}", file.display(), line_of(text, span.start));
-    let mut u = Update::default();
-    let mut order = None;
-    let mut cutoff = None;
-    if let Some(r) = raw.memory.first().and_then(|m| m.update.as_ref()) {
-        if let Some(f) = &r.filter
-            && f.get_ref() != "butterworth"
-        {
-            bail!(
-                "{}: memory.update.filter = {:?}: the only filter is \"butterworth\"",
-                at(f.span()),
-                f.get_ref()
-            );
-        }
-        if let Some(o) = &r.order {
-            let v = *o.get_ref();
-            if !(1..=i64::from(u8::MAX)).contains(&v) {
-                bail!(
-                    "{}: memory.update.order = {v} must be at least 1",
-                    at(o.span())
-                );
-            }
-            order = Some(v as u32);
-        }
-        if let Some(c) = &r.cutoff {
-            cutoff = Some(*c.get_ref());
-            if r.filter.is_none() {
-                bail!(
-                    "{}: memory.update.cutoff without filter = \"butterworth\"",
-                    at(c.span())
-                );
-            }
-        } else if let Some(f) = &r.filter {
-            bail!("{}: memory.update.filter needs a cutoff", at(f.span()));
-        }
-        if let Some(l) = &r.lead {
-            let v = *l.get_ref();
-            if v < 0 {
-                bail!(
-                    "{}: memory.update.lead = {v} must not be negative",
-                    at(l.span())
-                );
-            }
-            u.lead = v as usize;
-        }
-        if let Some(a) = &r.forgetting {
-            u.forgetting = *a.get_ref();
-        }
-        if let Some(g) = &r.gain {
-            u.gain = *g.get_ref();
-        }
-    }
+/// The first memory channel's update (validated with the scenario), then the command-line
+/// overrides, checked again.
+fn update(args: &AnalyzeArgs, scenario: &Scenario) -> Result<UpdateSettings> {
+    let file = &scenario.source;
+    let mut u = scenario
+        .memory
+        .first()
+        .and_then(|m| m.update)
+        .unwrap_or_default();
     if args.no_filter {
-        cutoff = None;
+        u.filter = None;
     }
     if let Some(c) = args.cutoff {
-        cutoff = Some(c);
+        u.filter = Some(LowPass {
+            order: u.filter.map_or(4, |q| q.order),
+            cutoff_hz: c,
+        });
     }
     if let Some(o) = args.order {
-        order = Some(o);
+        match &mut u.filter {
+            Some(q) => q.order = o,
+            None if !args.no_filter => {
+                bail!("--order needs a cutoff (--cutoff, or cutoff in [memory.update])")
+            }
+            None => {}
+        }
     }
     if let Some(l) = args.lead {
         u.lead = l;
@@ -180,18 +111,16 @@ fn update(args: &AnalyzeArgs, file: &Path, text: &str, h: f64) -> Result<Update>
     if let Some(g) = args.gain {
         u.gain = g;
     }
-    u.filter = match (cutoff, order) {
-        (Some(cutoff), order) => Some(Butterworth {
-            order: order.unwrap_or(4),
-            cutoff,
-        }),
-        (None, Some(_)) if args.order.is_some() && !args.no_filter => {
-            bail!("--order needs a cutoff (--cutoff, or cutoff in [memory.update])")
-        }
-        (None, _) => None,
-    };
-    u.validate(h)
+    validate(&u, scenario.step_size)
         .with_context(|| format!("{}: memory update", file.display()))?;
+    if u.lead >= scenario.steps {
+        bail!(
+            "{}: lead = {} samples must be below the {} samples of a trial",
+            file.display(),
+            u.lead,
+            scenario.steps
+        );
+    }
     Ok(u)
 }
 
@@ -252,7 +181,7 @@ fn find<'a>(
         })
 }
 
-fn problem(args: &AnalyzeArgs, scenario: &Scenario, text: &str, fmus: &[Fmu]) -> Result<Problem> {
+fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Problem> {
     let file = &scenario.source;
     let (plant_spec, plant_md) = find(scenario, fmus, "CkcmPlant")?;
     let (ctrl_spec, ctrl_md) = find(scenario, fmus, "HlcsController")?;
@@ -317,15 +246,7 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, text: &str, fmus: &[Fmu]) ->
             bail!("--{name} = {x} s must be positive");
         }
     }
-    let update = update(args, file, text, scenario.step_size)?;
-    if update.lead >= scenario.steps {
-        bail!(
-            "{}: lead = {} samples must be below the {} samples of a trial",
-            file.display(),
-            update.lead,
-            scenario.steps
-        );
-    }
+    let update = update(args, scenario)?;
     Ok(Problem {
         plant,
         trajectory: Trajectory {
@@ -368,11 +289,11 @@ fn write_csv(path: &Path, a: &Analysis) -> Result<()> {
     Ok(())
 }
 
-fn describe_update(u: &Update) -> String {
+fn describe_update(u: &UpdateSettings) -> String {
     let filter = match u.filter {
         Some(q) => format!(
             "Butterworth order {} cutoff {} Hz (zero phase)",
-            q.order, q.cutoff
+            q.order, q.cutoff_hz
         ),
         None => "no filter".to_string(),
     };
