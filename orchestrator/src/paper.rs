@@ -185,8 +185,10 @@ variables = ["controller.error", "controller.force", "plant.pose"]
 interval = 1
 trials = [{rec}]
 
+# The true error: desired minus noise-free length (equal to controller.error without noise).
 [metrics]
-error = "controller.error"
+reference = "controller.length_ref"
+length = "plant.length_true"
 rho = {rho:?}
 pose = "plant.pose"
 trajectory = {{ kind = "{traj}", duration = {duration:?}, home_height = 0.5 }}
