@@ -9,7 +9,7 @@
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;
-use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State};
+use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State, Workspace};
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
 use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
 use rand_chacha::ChaCha8Rng;
@@ -37,6 +37,7 @@ pub struct CkcmPlant {
 struct Sim {
     mechanism: Mechanism,
     integrator: Integrator,
+    workspace: Workspace,
     state: State,
     noise: Noise,
     /// Index of the current communication point: 0 after initialization, +1 per doStep.
@@ -84,6 +85,18 @@ impl Noise {
         for (i, x) in values.iter_mut().enumerate() {
             *x += sigma * self.standard_normal(point, first_channel + i as u32);
         }
+    }
+}
+
+impl Sim {
+    /// Checks `state` against the workspace (strokes, base plane, finiteness); the message
+    /// names the leg or joint, the value and the time `t`.
+    fn check(&self, state: &State, t: f64) -> Result<(), String> {
+        let legs = self.mechanism.inverse_kinematics(&state.pose);
+        let twist_finite = state.twist.iter().all(|x| x.is_finite());
+        self.workspace
+            .check(&state.pose, twist_finite, &legs)
+            .map_err(|e| format!("at t = {t} s {e}"))
     }
 }
 
@@ -158,12 +171,20 @@ impl CkcmPlant {
     fn build(&self) -> ModelResult<Sim> {
         let mechanism =
             Mechanism::new(self.params()).map_err(|e| ModelError::error(e.to_string()))?;
+        let workspace = Workspace {
+            length_min: self.values.real(vr::LENGTH_MIN),
+            length_max: self.values.real(vr::LENGTH_MAX),
+        };
+        workspace
+            .validate()
+            .map_err(|e| ModelError::error(e.to_string()))?;
         let offset = self.values.real6(vr::INITIAL_POSE_1);
         let mut initial = offset;
         initial[2] += mechanism.params.geometry.home_height;
         Ok(Sim {
             mechanism,
             integrator: self.integrator()?,
+            workspace,
             state: State::at_rest(Pose::from_xyz_euler(&initial)),
             noise: self.noise()?,
             point: 0,
@@ -218,26 +239,45 @@ impl Model for CkcmPlant {
         Ok(())
     }
 
-    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
-        self.sim = Some(self.build()?);
+    fn initialize(&mut self, start_time: f64) -> ModelResult<()> {
+        let sim = self.build()?;
+        // A geometry whose home or initial pose lies outside the workspace (or whose leg
+        // lengths overflow) cannot be simulated: an error here, not outputs of inf.
+        sim.check(&sim.state, start_time).map_err(|e| {
+            ModelError::error(format!(
+                "the initial pose (home_height + initial_pose) is outside the workspace: {e}"
+            ))
+        })?;
+        self.sim = Some(sim);
         self.write_outputs();
         Ok(())
     }
 
+    /// Integrates a copy of the state and commits it only if it stays in the workspace:
+    /// a step that leaves it (or whose integration fails) is discarded, the outputs keep
+    /// the last accepted state, and the message names the cause and the time.
     fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()> {
         let force = Vector6::from_row_slice(&self.values.real6(vr::FORCE_1));
         let sim = self
             .sim
             .as_mut()
             .ok_or_else(|| ModelError::error("doStep before initialization"))?;
-        sim.integrator
-            .advance(&sim.mechanism, &mut sim.state, &force, h)
-            .map_err(|e| {
-                ModelError::error(format!(
-                    "the plant could not be advanced from t = {t} s by {h} s under force = {:?} N: {e}",
-                    force.as_slice()
-                ))
-            })?;
+        let mut next = sim.state;
+        let mut integrator = sim.integrator;
+        let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
+        let end = t + h;
+        let checked = match advanced {
+            Ok(()) => sim.check(&next, end),
+            Err(e) => Err(format!("at t = {end} s {e}")),
+        };
+        checked.map_err(|e| {
+            ModelError::discard(format!(
+                "the step from t = {t} s by {h} s under force = {:?} N is refused: {e}",
+                force.as_slice()
+            ))
+        })?;
+        sim.state = next;
+        sim.integrator = integrator;
         sim.point += 1;
         self.write_outputs();
         Ok(())

@@ -1,11 +1,13 @@
 //! The co-simulation master: Gauss–Seidel stepping at t_n = t_0 + n·h, repeated trials
-//! from the same initial state, and double-buffered iteration memory (docs/model.md §6).
+//! from the same initial state, and double-buffered iteration memory with a per-channel
+//! update stage between trials (docs/model.md §6, §9).
 //!
 //! All buffers are sized once per campaign; the per-step loop only copies between
 //! preallocated slices and calls the FMUs.
 
 use std::ops::Range;
 
+use ckcm::learning::MemoryUpdate;
 use fmi2::import::{Fmu, ImportError, Instance};
 
 use crate::output::Recording;
@@ -39,6 +41,11 @@ pub enum MasterError {
         last_successful_time: Option<f64>,
         terminated: bool,
         source: Box<ImportError>,
+    },
+    #[error("memory channel {channel:?}: {source}")]
+    Update {
+        channel: String,
+        source: ckcm::learning::UpdateError,
     },
     #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
     Setup {
@@ -101,6 +108,19 @@ struct Channel {
     producer: usize,
     read: Vec<f64>,
     write: Vec<f64>,
+    /// The robust update between trials; `None`: the paper's plain buffer swap.
+    update: Option<MemoryUpdate>,
+}
+
+impl Channel {
+    /// End of a trial: the update stage turns the written m_k into u_{k+1}
+    /// (docs/model.md §9), which becomes the read buffer of the next trial.
+    fn end_trial(&mut self) {
+        if let Some(u) = &mut self.update {
+            u.apply(&self.read, &mut self.write);
+        }
+        std::mem::swap(&mut self.read, &mut self.write);
+    }
 }
 
 /// Loaded FMUs, instances and buffers for one scenario.
@@ -165,7 +185,11 @@ impl<'s> Master<'s> {
                 }
             }
         };
-        for l in scenario.connections.iter().chain(&scenario.memory) {
+        for l in scenario
+            .connections
+            .iter()
+            .chain(scenario.memory.iter().map(|m| &m.link))
+        {
             need(&l.from);
         }
         for p in &scenario.record.ports {
@@ -212,7 +236,8 @@ impl<'s> Master<'s> {
         }
         let steps = scenario.steps;
         let mut channels = Vec::new();
-        for (c, l) in scenario.memory.iter().enumerate() {
+        for (c, m) in scenario.memory.iter().enumerate() {
+            let l = &m.link;
             let width = l.from.value_references.len();
             let from_slots = l
                 .from
@@ -225,12 +250,24 @@ impl<'s> Master<'s> {
                 w.in_vrs.push(vr);
                 w.in_src.push(Source::Memory(c, i));
             }
+            let update = match m.update {
+                None => None,
+                Some(settings) => Some(
+                    MemoryUpdate::new(settings, steps, width, scenario.step_size).map_err(
+                        |source| MasterError::Update {
+                            channel: l.to.reference.clone(),
+                            source,
+                        },
+                    )?,
+                ),
+            };
             channels.push(Channel {
                 width,
                 from_slots,
                 producer: l.from.fmu,
                 read: vec![0.0; steps * width],
                 write: vec![0.0; steps * width],
+                update,
             });
         }
         let mut column_names = Vec::new();
@@ -296,7 +333,7 @@ impl<'s> Master<'s> {
         self.scenario
             .memory
             .iter()
-            .flat_map(|l| l.from.names.iter().cloned())
+            .flat_map(|m| m.link.from.names.iter().cloned())
             .collect()
     }
 
@@ -381,8 +418,8 @@ impl<'s> Master<'s> {
     }
 
     /// Runs trial `trial` with the current read buffers, filling the write buffers,
-    /// `recording` (if given; cleared first) and `signals` (cleared first). On success the
-    /// write buffers become the read buffers (the memory of the next trial).
+    /// `recording` (if given; cleared first) and `signals` (cleared first). On success each
+    /// channel's update stage makes the memory of the next trial from them.
     pub fn run_trial(
         &mut self,
         trial: usize,
@@ -508,7 +545,7 @@ impl<'s> Master<'s> {
             on_step(n);
         }
         for ch in &mut self.channels {
-            std::mem::swap(&mut ch.read, &mut ch.write);
+            ch.end_trial();
         }
         Ok(())
     }

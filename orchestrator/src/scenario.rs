@@ -7,8 +7,9 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2::export::{Causality, VarType};
-use fmi2::md::{ModelDescription, SimpleTypeKind, VariableKind};
+use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -35,11 +36,14 @@ struct RawScenario {
     #[serde(default, rename = "connection")]
     connections: Vec<RawLink>,
     #[serde(default)]
-    memory: Vec<RawLink>,
+    memory: Vec<RawMemory>,
     #[serde(default = "no_record")]
     record: RawRecord,
     #[serde(default)]
     metrics: Option<Spanned<RawMetrics>>,
+    /// Refuse to run beyond this estimated memory, MiB (see `campaign::check_memory`).
+    #[serde(default)]
+    memory_limit_mib: Option<Spanned<u64>>,
 }
 
 fn no_record() -> RawRecord {
@@ -68,6 +72,34 @@ struct RawFmu {
 struct RawLink {
     from: Spanned<String>,
     to: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMemory {
+    from: Spanned<String>,
+    to: Spanned<String>,
+    #[serde(default)]
+    update: Option<Spanned<RawUpdate>>,
+}
+
+/// `[memory.update]`: the robust learning update (docs/model.md §9). Integers are read
+/// signed so that a negative value gets its own message.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawUpdate {
+    #[serde(default)]
+    filter: Option<Spanned<String>>,
+    #[serde(default)]
+    order: Option<Spanned<i64>>,
+    #[serde(default)]
+    cutoff: Option<Spanned<f64>>,
+    #[serde(default)]
+    lead: Option<Spanned<i64>>,
+    #[serde(default)]
+    forgetting: Option<Spanned<f64>>,
+    #[serde(default)]
+    gain: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -106,6 +138,9 @@ struct RawMetrics {
 fn default_rho() -> Spanned<f64> {
     Spanned::new(0..0, DEFAULT_RHO)
 }
+
+/// Most steps per trial: 2^53, where t_n = t_0 + n·h stops telling samples apart.
+const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 
 /// Default weight of the λ-norm, 1/s.
 pub const DEFAULT_RHO: f64 = 1.0;
@@ -191,6 +226,16 @@ pub struct Link {
     pub to: Port,
 }
 
+/// An iteration-memory channel: `to` reads during trial k what `from` wrote during trial
+/// k − 1, after the update.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemoryChannel {
+    pub link: Link,
+    /// The robust update between trials; `None` is the paper's update (the values written
+    /// become the values read, bit for bit).
+    pub update: Option<UpdateSettings>,
+}
+
 /// What to record.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
@@ -254,13 +299,18 @@ pub struct Scenario {
     /// FMUs in stepping (Gauss–Seidel) order.
     pub fmus: Vec<FmuSpec>,
     pub connections: Vec<Link>,
-    pub memory: Vec<Link>,
+    pub memory: Vec<MemoryChannel>,
     pub record: Record,
     pub metrics: Option<Metrics>,
+    /// `memory_limit_mib`: the most memory a campaign may take, MiB (default: the
+    /// campaign's default, 4096).
+    pub memory_limit_mib: Option<u64>,
+    /// Line of `stop_time`, which with `step_size` sets the campaign's size (for messages).
+    pub stop_time_line: Option<usize>,
 }
 
 /// Line (1-based) of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
+pub(crate) fn line_of(text: &str, offset: usize) -> usize {
     text.as_bytes()[..offset.min(text.len())]
         .iter()
         .filter(|&&b| b == b'\n')
@@ -333,10 +383,20 @@ impl Scenario {
             );
         }
         let steps_f = (stop - raw.start_time) / h;
+        // Beyond 2^53 steps t_n = t_0 + n·h no longer tells samples apart.
+        if !(steps_f.is_finite() && steps_f <= MAX_STEPS) {
+            return cx.err(
+                span_stop.clone(),
+                format!(
+                    "(stop_time − start_time) / step_size = {steps_f:e} steps is more than \
+                     {MAX_STEPS:e}; enlarge step_size or shorten the trial"
+                ),
+            );
+        }
         let steps = steps_f.round() as usize;
         if (steps_f - steps as f64).abs() > 1e-6 * steps_f.max(1.0) {
             return cx.err(
-                span_stop,
+                span_stop.clone(),
                 format!(
                     "stop_time − start_time = {} is not a whole number of steps of {h} s",
                     stop - raw.start_time
@@ -388,19 +448,34 @@ impl Scenario {
             check_link(&cx, &mds, c, &from, &to, "connection")?;
             connections.push(Link { from, to });
         }
+        let raw_memory: Vec<RawLink> = raw
+            .memory
+            .iter()
+            .map(|m| RawLink {
+                from: m.from.clone(),
+                to: m.to.clone(),
+            })
+            .collect();
         let mut memory = Vec::new();
-        for c in &raw.memory {
+        for (c, m) in raw_memory.iter().zip(&raw.memory) {
             let from = resolve(&c.from, "memory from")?;
             let to = resolve(&c.to, "memory to")?;
             check_link(&cx, &mds, c, &from, &to, "memory channel")?;
-            memory.push(Link { from, to });
+            let update = match &m.update {
+                None => None,
+                Some(u) => Some(parse_update(&cx, u, steps, h)?),
+            };
+            memory.push(MemoryChannel {
+                link: Link { from, to },
+                update,
+            });
         }
         // An input fed twice would silently depend on the order of the entries.
         let mut fed = BTreeSet::new();
         for (link, raw_link) in connections
             .iter()
-            .chain(&memory)
-            .zip(raw.connections.iter().chain(&raw.memory))
+            .chain(memory.iter().map(|m| &m.link))
+            .zip(raw.connections.iter().chain(&raw_memory))
         {
             for vr in &link.to.value_references {
                 if !fed.insert((link.to.fmu, *vr)) {
@@ -414,9 +489,20 @@ impl Scenario {
                 }
             }
         }
-        let mut ports = Vec::new();
+        let mut ports: Vec<Port> = Vec::new();
+        let mut recorded: BTreeMap<String, String> = BTreeMap::new();
         for r in &raw.record.variables {
             let p = resolve(r, "record")?;
+            // A variable listed twice would give two CSV columns of one name: refused, so
+            // the scenario says exactly what each column is.
+            for name in &p.names {
+                if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+                    return cx.err(
+                        r.span(),
+                        format!("record: {name:?} is listed twice (already recorded by {by:?})"),
+                    );
+                }
+            }
             if p.var_type != VarType::Real {
                 return cx.err(
                     r.span(),
@@ -529,6 +615,8 @@ impl Scenario {
                 trials: rec_trials,
             },
             metrics,
+            memory_limit_mib: raw.memory_limit_mib.as_ref().map(|m| *m.get_ref()),
+            stop_time_line: (span_stop.end > 0).then(|| line_of(text, span_stop.start)),
         })
     }
 
@@ -537,6 +625,115 @@ impl Scenario {
     pub fn time(&self, n: usize) -> f64 {
         self.start_time + n as f64 * self.step_size
     }
+}
+
+/// Validates `[memory.update]` for trials of `steps` samples of `h` s.
+fn parse_update(
+    cx: &Ctx<'_>,
+    u: &Spanned<RawUpdate>,
+    steps: usize,
+    h: f64,
+) -> Result<UpdateSettings, ScenarioError> {
+    let r = u.get_ref();
+    let mut settings = UpdateSettings::default();
+    let finite = |v: &Option<Spanned<f64>>, name: &str, default: f64| match v {
+        None => Ok(default),
+        Some(x) if x.get_ref().is_finite() => Ok(*x.get_ref()),
+        Some(x) => cx.err(
+            x.span(),
+            format!(
+                "memory.update.{name} = {} must be a finite number",
+                x.get_ref()
+            ),
+        ),
+    };
+    settings.forgetting = finite(&r.forgetting, "forgetting", 1.0)?;
+    settings.gain = finite(&r.gain, "gain", 1.0)?;
+    if let Some(lead) = &r.lead {
+        let l = *lead.get_ref();
+        if l < 0 {
+            return cx.err(
+                lead.span(),
+                format!("memory.update.lead = {l} must not be negative (samples of phase lead)"),
+            );
+        }
+        if l as u64 >= steps as u64 {
+            return cx.err(
+                lead.span(),
+                format!(
+                    "memory.update.lead = {l} must be less than the {steps} samples of a trial"
+                ),
+            );
+        }
+        settings.lead = l as usize;
+    }
+    match &r.filter {
+        None => {
+            if let Some(span) = r
+                .order
+                .as_ref()
+                .map(|o| o.span())
+                .or(r.cutoff.as_ref().map(|c| c.span()))
+            {
+                return cx.err(
+                    span,
+                    "memory.update: order and cutoff need filter = \"butterworth\"",
+                );
+            }
+        }
+        Some(f) if f.get_ref() == "butterworth" => {
+            let Some(order) = &r.order else {
+                return cx.err(
+                    f.span(),
+                    "memory.update: filter = \"butterworth\" needs order (>= 1)",
+                );
+            };
+            let Some(cutoff) = &r.cutoff else {
+                return cx.err(
+                    f.span(),
+                    "memory.update: filter = \"butterworth\" needs cutoff (Hz)",
+                );
+            };
+            let o = *order.get_ref();
+            if !(1..=ckcm::learning::MAX_ORDER as i64).contains(&o) {
+                return cx.err(
+                    order.span(),
+                    format!(
+                        "memory.update.order = {o} must be between 1 and {}",
+                        ckcm::learning::MAX_ORDER
+                    ),
+                );
+            }
+            let fc = *cutoff.get_ref();
+            let nyquist = 0.5 / h;
+            if !(fc.is_finite() && fc > 0.0 && fc < nyquist) {
+                return cx.err(
+                    cutoff.span(),
+                    format!("memory.update.cutoff = {fc} Hz must lie strictly between 0 and the Nyquist frequency 1/(2·step_size) = {nyquist} Hz"),
+                );
+            }
+            if steps <= 2 * o as usize {
+                return cx.err(
+                    order.span(),
+                    format!("memory.update: a zero-phase filter of order {o} needs more than {} samples per trial, there are {steps}", 2 * o),
+                );
+            }
+            settings.filter = Some(LowPass {
+                order: o as usize,
+                cutoff_hz: fc,
+            });
+        }
+        Some(f) => {
+            return cx.err(
+                f.span(),
+                format!(
+                    "memory.update.filter {:?} is unknown: the only filter is \"butterworth\"",
+                    f.get_ref()
+                ),
+            );
+        }
+    }
+    Ok(settings)
 }
 
 fn parse_trajectory(
@@ -831,6 +1028,9 @@ fn parameter_settings(
                 return bad("no value: String parameters are not supported");
             }
         };
+        if let Err(message) = check_value(md, v, &parsed) {
+            return cx.err(value.span(), message);
+        }
         out.push(Setting {
             name: v.name.clone(),
             value_reference: v.value_reference,
@@ -839,6 +1039,76 @@ fn parameter_settings(
         });
     }
     Ok(out)
+}
+
+/// The `min` and `max` that bound `var`: its own attributes, else those of its declared type.
+pub fn declared_range(md: &ModelDescription, var: &ScalarVariable) -> (Option<f64>, Option<f64>) {
+    let declared = |name: Option<&str>| name.and_then(|n| md.simple_type(n)).map(|t| &t.kind);
+    match &var.kind {
+        VariableKind::Real {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Real { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin), max.or(tmax))
+        }
+        VariableKind::Integer {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Integer { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin).map(f64::from), max.or(tmax).map(f64::from))
+        }
+        // The items bound an enumeration type; a variable may narrow them.
+        VariableKind::Enumeration { min, max, .. } => (min.map(f64::from), max.map(f64::from)),
+        VariableKind::Boolean { .. } | VariableKind::String { .. } => (None, None),
+    }
+}
+
+/// Checks a value against what the model description allows for `var`: a finite number
+/// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
+/// an error the FMU may only report later, without the scenario's line).
+pub fn check_value(
+    md: &ModelDescription,
+    var: &ScalarVariable,
+    value: &Value,
+) -> Result<(), String> {
+    let x = match *value {
+        Value::Real(x) => x,
+        Value::Integer(n) => f64::from(n),
+        Value::Boolean(_) => return Ok(()),
+    };
+    let name = &var.name;
+    if !x.is_finite() {
+        return Err(format!("{name:?} = {x} is not a finite number"));
+    }
+    let (min, max) = declared_range(md, var);
+    let range = format!(
+        "[{}, {}]",
+        min.map_or("-inf".to_owned(), |m| m.to_string()),
+        max.map_or("inf".to_owned(), |m| m.to_string())
+    );
+    if let Some(m) = min.filter(|&m| x < m) {
+        return Err(format!(
+            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
+        ));
+    }
+    if let Some(m) = max.filter(|&m| x > m) {
+        return Err(format!(
+            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
+        ));
+    }
+    Ok(())
 }
 
 /// A per-trial value `{ base = B, per_trial = S }` of a Real or Integer variable: B in
