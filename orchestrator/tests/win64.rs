@@ -35,15 +35,9 @@ const SYSTEM_DLLS: [&str; 9] = [
     "api-ms-win-core-synch-l1-2-0.dll",
 ];
 
-/// Values of the Wine and Linux runs agree to this, relative (see [`assert_csv_close`]).
+/// Values of the Wine and Linux runs agree to this, relative to their scale (see
+/// [`assert_csv_close`]).
 const REL_TOL: f64 = 1e-12;
-
-/// ... or to this, absolute (SI units), for values that are round-off residue of zero or
-/// differences of much larger numbers: one ulp of a 0.5 m leg length is 1.1e-16 m, so a
-/// leg error e = l_d − l of 1e-5 m differs by 1e-11 relative when one libm call differs by
-/// one ulp; the orientation of a platform moving on a straight line is 1e-9 rad of
-/// round-off around zero.
-const ABS_FLOOR: f64 = 1e-15;
 
 /// The bytes of `name` inside the archive `fmu`.
 fn archive_entry(fmu: &Path, name: &str) -> Vec<u8> {
@@ -67,7 +61,11 @@ fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {
         let dll = archive_entry(&fmu, &dll_name);
         let pe = object::read::pe::PeFile64::parse(dll.as_slice())
             .unwrap_or_else(|e| panic!("{dll_name} in {}: not a PE32+ file: {e}", fmu.display()));
-        assert_eq!(pe.architecture(), object::Architecture::X86_64, "{dll_name}");
+        assert_eq!(
+            pe.architecture(),
+            object::Architecture::X86_64,
+            "{dll_name}"
+        );
 
         let imports: Vec<object::Import> = pe
             .imports()
@@ -89,7 +87,10 @@ fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {
             "{dll_name} in {} imports non-system DLLs {foreign:?} (all: {libraries:?})",
             fmu.display()
         );
-        assert!(libraries.iter().any(|l| l == "kernel32.dll"), "{libraries:?}");
+        assert!(
+            libraries.iter().any(|l| l == "kernel32.dll"),
+            "{libraries:?}"
+        );
 
         let exports: Vec<object::Export> = pe
             .exports()
@@ -127,7 +128,10 @@ fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {
         win_fmi.sort();
         let mut linux_fmi: Vec<&String> = elf_exports.iter().collect();
         linux_fmi.sort();
-        assert_eq!(win_fmi, linux_fmi, "{id}: win64 and linux64 export different fmi2 functions");
+        assert_eq!(
+            win_fmi, linux_fmi,
+            "{id}: win64 and linux64 export different fmi2 functions"
+        );
     }
 }
 
@@ -185,9 +189,9 @@ fn assert_success(out: &Output, what: &str) {
 /// Largest differences found between two CSV files.
 #[derive(Debug, Default, Clone, Copy)]
 struct Differences {
-    /// Largest |a − b| / max(|a|, |b|) over values that differ by more than `ABS_FLOOR`.
+    /// Largest |a − b| / scale (see [`assert_csv_close`]).
     relative: f64,
-    /// Largest |a − b|.
+    /// Largest |a − b| (SI units).
     absolute: f64,
     /// Values that are not bit-identical.
     count: usize,
@@ -204,9 +208,15 @@ impl Differences {
 }
 
 /// Two CSV files with the same header, the same number of rows and, field by field,
-/// either the same text or numbers that agree to `REL_TOL` relative or `ABS_FLOOR`
-/// absolute. Platform libms (glibc against mingw-w64's msvcrt) may round a sin, cos, tanh
-/// or exp differently by an ulp, which the closed loop carries on.
+/// either the same text or numbers with |a − b| ≤ `REL_TOL` · scale, where scale is the
+/// largest of |a|, |b|, the largest magnitude in that column, and 1 (SI unit).
+///
+/// Why not |a| alone: the two builds use different C math libraries (glibc against
+/// mingw-w64's msvcrt), whose sin, cos, tanh or exp may round differently by an ulp. The
+/// leg lengths then differ by an ulp or two of 0.7 m (~2e-16 m); a leg error e = l_d − l of
+/// 1e-5 m computed from them differs by 1e-11 of itself, a force by Kp·2e-16 m ≈ 1e-11 N,
+/// and an orientation that is round-off around zero (the line has none) by 100 %, while
+/// every quantity agrees to ~1e-12 of its own scale.
 fn assert_csv_close(linux: &Path, windows: &Path) -> Differences {
     let read = |p: &Path| -> Vec<Vec<String>> {
         csv::ReaderBuilder::new()
@@ -218,9 +228,22 @@ fn assert_csv_close(linux: &Path, windows: &Path) -> Differences {
             .collect()
     };
     let (a, b) = (read(linux), read(windows));
-    assert_eq!(a.first(), b.first(), "headers differ: {}", windows.display());
+    assert_eq!(
+        a.first(),
+        b.first(),
+        "headers differ: {}",
+        windows.display()
+    );
     assert_eq!(a.len(), b.len(), "row counts differ: {}", windows.display());
     assert!(a.len() > 1, "{} has no data rows", linux.display());
+    let scale: Vec<f64> = (0..a[0].len())
+        .map(|c| {
+            a[1..]
+                .iter()
+                .filter_map(|row| row.get(c)?.parse::<f64>().ok())
+                .fold(1.0_f64, |m, v| m.max(v.abs()))
+        })
+        .collect();
     let mut found = Differences::default();
     for (n, (ra, rb)) in a.iter().zip(&b).enumerate().skip(1) {
         assert_eq!(ra.len(), rb.len(), "{} row {n}", windows.display());
@@ -230,20 +253,23 @@ fn assert_csv_close(linux: &Path, windows: &Path) -> Differences {
             }
             let column = &a[0][c];
             let (Ok(x), Ok(y)) = (fa.parse::<f64>(), fb.parse::<f64>()) else {
-                panic!("{} row {n} column {column}: {fa:?} against {fb:?}", windows.display());
+                panic!(
+                    "{} row {n} column {column}: {fa:?} against {fb:?}",
+                    windows.display()
+                );
             };
             let diff = (x - y).abs();
-            let rel = diff / x.abs().max(y.abs());
+            let rel = diff / x.abs().max(y.abs()).max(scale[c]);
             assert!(
-                rel <= REL_TOL || diff <= ABS_FLOOR,
-                "{} row {n} column {column}: Linux {x:e}, Windows {y:e} (relative {rel:e})",
-                windows.display()
+                rel <= REL_TOL,
+                "{} row {n} column {column}: Linux {x:e}, Windows {y:e} (difference {diff:e}, \
+                 {rel:e} of the scale {:e})",
+                windows.display(),
+                scale[c]
             );
             found.count += 1;
             found.absolute = found.absolute.max(diff);
-            if diff > ABS_FLOOR {
-                found.relative = found.relative.max(rel);
-            }
+            found.relative = found.relative.max(rel);
         }
     }
     found
@@ -314,12 +340,7 @@ trajectory = {{ kind = "{trajectory}", duration = {duration:?}, home_height = 0.
         .assert()
         .success();
     let windows = dir.path().join("windows");
-    let out = wine(&[
-        "run",
-        &win_path(&scenario),
-        "--out",
-        &win_path(&windows),
-    ]);
+    let out = wine(&["run", &win_path(&scenario), "--out", &win_path(&windows)]);
     assert_success(&out, &format!("orchestrator.exe run ({trajectory})"));
 
     let mut files = vec![PathBuf::from("summary.csv"), PathBuf::from("memory.csv")];
@@ -394,7 +415,10 @@ fn wine_missing_win64_binary_names_the_platforms() {
         (!name.starts_with("binaries/win64/")).then_some(bytes)
     });
     let out = wine(&["info", &win_path(&fmu)]);
-    assert!(!out.status.success(), "info of a Linux-only FMU succeeded on Windows");
+    assert!(
+        !out.status.success(),
+        "info of a Linux-only FMU succeeded on Windows"
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains(
