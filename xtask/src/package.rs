@@ -8,28 +8,30 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{FMUS, cargo, docs, run, win64};
+use crate::{FMUS, cargo, docs, run, target_dir, win64};
 
 /// Builds both FMU crates in release mode, for Linux and for win64, and writes
-/// `target/fmu/<id>.fmu`.
+/// `<target dir>/fmu/<id>.fmu`, from the libraries of the same target directory
+/// (`$CARGO_TARGET_DIR` honoured).
 pub fn build_fmus(root: &Path) -> Result<()> {
     win64::ensure_cross_toolchain()?;
+    let target = target_dir(root);
     let mut cmd = Command::new(cargo());
     cmd.current_dir(root)
+        .env("CARGO_TARGET_DIR", &target)
         .args(["build", "--release", "--quiet"]);
     for (package, _) in FMUS {
         cmd.args(["-p", package]);
     }
     run(&mut cmd)?;
-    let packages = FMUS.map(|(package, _)| package);
-    win64::cargo_build(root, &packages)?;
-    let out_dir = root.join("target/fmu");
+    win64::cargo_build(root, &FMUS.map(|(package, _)| package))?;
+    let out_dir = target.join("fmu");
     fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
     for (package, id) in FMUS {
-        let lib = root
-            .join("target/release")
+        let lib = target
+            .join("release")
             .join(format!("lib{}.so", package_lib_name(package)));
-        let dll = win64::release_dir(root).join(format!("{}.dll", package_lib_name(package)));
+        let dll = win64::release_dir(&target).join(format!("{}.dll", package_lib_name(package)));
         let xml = root.join("modelDescription").join(format!("{id}.xml"));
         let fmu = out_dir.join(format!("{id}.fmu"));
         package_fmu(&xml, &lib, &dll, &fmu)?;

@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 
 use anyhow::{Context, Result, bail};
 
-use crate::{cargo, run};
+use crate::{cargo, run, target_dir};
 
 /// Rust's target for 64-bit Windows with the MinGW-w64 toolchain (linker and flags in
 /// `.cargo/config.toml`).
@@ -20,15 +20,9 @@ pub const TARGET: &str = "x86_64-pc-windows-gnu";
 /// The MinGW-w64 C compiler, which Rust uses as the linker (and `cc` for C code).
 const MINGW_GCC: &str = "x86_64-w64-mingw32-gcc";
 
-/// Where the Wine tests run: `bin/` holds the copy of `orchestrator.exe` with the
-/// test-only `bcryptprimitives.dll` beside it, `prefix/` is the Wine prefix.
-pub fn wine_dir(root: &Path) -> PathBuf {
-    root.join("target/wine")
-}
-
-/// `target/x86_64-pc-windows-gnu/release`.
-pub fn release_dir(root: &Path) -> PathBuf {
-    root.join("target").join(TARGET).join("release")
+/// `<target dir>/x86_64-pc-windows-gnu/release`.
+pub fn release_dir(target: &Path) -> PathBuf {
+    target.join(TARGET).join("release")
 }
 
 /// Installs the rustup target and mingw-w64 when missing.
@@ -57,6 +51,7 @@ pub fn ensure_wine() -> Result<()> {
 pub fn cargo_build(root: &Path, packages: &[&str]) -> Result<()> {
     let mut cmd = Command::new(cargo());
     cmd.current_dir(root)
+        .env("CARGO_TARGET_DIR", target_dir(root))
         .args(["build", "--release", "--quiet", "--target", TARGET]);
     for package in packages {
         cmd.args(["-p", package]);
@@ -64,18 +59,19 @@ pub fn cargo_build(root: &Path, packages: &[&str]) -> Result<()> {
     run(&mut cmd)
 }
 
-/// Cross-builds `orchestrator.exe`, copies it into `target/wine/bin` beside the test-only
-/// `bcryptprimitives.dll` stand-in (built from `tests/wine/bcryptprimitives.c`), and
-/// creates the Wine prefix `target/wine/prefix` if needed. Returns the environment the
-/// Wine tests read.
+/// Cross-builds `orchestrator.exe`, copies it into `<target dir>/wine/bin` beside the
+/// test-only `bcryptprimitives.dll` stand-in (built from `tests/wine/bcryptprimitives.c`),
+/// and creates the Wine prefix `<target dir>/wine/prefix` if needed. Returns the
+/// environment the Wine tests read.
 pub fn prepare_wine(root: &Path) -> Result<Vec<(&'static str, PathBuf)>> {
     ensure_wine()?;
     cargo_build(root, &["orchestrator"])?;
-    let dir = wine_dir(root);
+    let target = target_dir(root);
+    let dir = target.join("wine");
     let bin = dir.join("bin");
     fs::create_dir_all(&bin).with_context(|| format!("cannot create {}", bin.display()))?;
     let exe = bin.join("orchestrator.exe");
-    let built = release_dir(root).join("orchestrator.exe");
+    let built = release_dir(&target).join("orchestrator.exe");
     fs::copy(&built, &exe)
         .with_context(|| format!("cannot copy {} to {}", built.display(), exe.display()))?;
     run(Command::new(MINGW_GCC)
