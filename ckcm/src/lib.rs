@@ -9,9 +9,11 @@
 
 pub mod closed_loop;
 pub mod control;
+pub mod convergence;
 pub mod dynamics;
 pub mod integrate;
 pub mod kinematics;
+pub mod learning;
 pub mod metrics;
 pub mod params;
 pub mod rotation;

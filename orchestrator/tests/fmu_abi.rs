@@ -1,21 +1,13 @@
 //! The packaged FMUs through the C ABI (loaded with `fmi2::import`): independence of
 //! instances, FMU-state serialization, and the errors a user meets first.
 
-use std::path::{Path, PathBuf};
+mod common;
 
 use fmi2::import::{Fmu, Instance};
 
 fn fmu(name: &str) -> Fmu {
-    let dir = std::env::var_os("CKCM_FMU_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"));
-    let path = dir.join(name);
-    assert!(
-        path.exists(),
-        "{} not found: run `cargo xtask fmu` first",
-        path.display()
-    );
-    Fmu::open(&path).unwrap()
+    let stem = name.strip_suffix(".fmu").unwrap_or(name);
+    Fmu::open(common::built_fmu(stem)).unwrap()
 }
 
 fn vr(f: &Fmu, name: &str) -> u32 {
