@@ -244,8 +244,8 @@ impl ZeroPhase {
         // Column 0 of O: the zero-input response from state e₀; column k is it delayed by k.
         let mut obs = vec![0.0; n * order];
         z[0] = 1.0;
-        for i in 0..n {
-            obs[i] = lfilter_step(&tf, &mut z, 0.0);
+        for o in obs.iter_mut().take(n) {
+            *o = lfilter_step(&tf, &mut z, 0.0);
         }
         for k in 1..order {
             for i in k..n {
