@@ -15,6 +15,7 @@ use fmi2::Status;
 use fmi2::export::{Causality, Variability};
 use fmi2::import::{Fmu, ImportError, Instance};
 use fmi2::md::{Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use orchestrator::master::STATUS_CATEGORIES;
 use orchestrator::output::{CsvWithText, Exporter, Recording, write_recording};
 use orchestrator::scenario::{self, check_value};
 
@@ -680,6 +681,18 @@ fn simulate(
     if verbose {
         let status = inst.set_debug_logging(true, &[])?;
         report_log(&inst, status, verbose);
+    } else {
+        // Still hear why a call fails or is discarded: the status categories the FMU
+        // declares log only when something goes wrong.
+        let categories: Vec<&str> = md
+            .log_categories
+            .iter()
+            .map(|c| c.name.as_str())
+            .filter(|n| STATUS_CATEGORIES.contains(n))
+            .collect();
+        if !categories.is_empty() {
+            inst.set_debug_logging(true, &categories)?;
+        }
     }
     for a in &plan.starts {
         let status = set_value(&mut inst, a.vr, &a.value)
