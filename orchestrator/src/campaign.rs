@@ -195,7 +195,7 @@ impl TrialSummary {
 
 /// FNV-1a, 64 bit: a stable fingerprint across builds and platforms (std's hasher is not
 /// guaranteed stable), over a handful of bytes where speed does not matter.
-fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
     bytes.iter().fold(hash, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
     })
@@ -354,8 +354,8 @@ fn write_memory_csv(
     let mut row = vec![0.0; names.len()];
     for n in 0..scenario.steps {
         let mut col = 0;
-        for (c, l) in scenario.memory.iter().enumerate() {
-            let width = l.from.value_references.len();
+        for (c, m) in scenario.memory.iter().enumerate() {
+            let width = m.link.from.value_references.len();
             row[col..col + width].copy_from_slice(&buffers[c][n * width..(n + 1) * width]);
             col += width;
         }
@@ -372,7 +372,7 @@ pub fn memory_estimate(scenario: &Scenario) -> u64 {
     let memory_width: usize = scenario
         .memory
         .iter()
-        .map(|l| l.from.value_references.len())
+        .map(|l| l.link.from.value_references.len())
         .sum();
     let recorded: usize = scenario.record.ports.iter().map(|p| p.names.len()).sum();
     let rows = (steps / scenario.record.interval as f64).ceil();
@@ -568,7 +568,7 @@ pub fn run_campaign(
             let lens: Vec<usize> = scenario
                 .memory
                 .iter()
-                .map(|l| scenario.steps * l.from.value_references.len())
+                .map(|m| scenario.steps * m.link.from.value_references.len())
                 .collect();
             let data = read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?;
             master.set_memory(&data);
@@ -670,7 +670,7 @@ pub fn run_campaign(
     Ok(summaries)
 }
 
-fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
+pub fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
     let mut reader =
         csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut out = Vec::new();

@@ -1,4 +1,5 @@
-//! `orchestrator`: run scenarios, simulate single FMUs, inspect FMUs, reproduce the paper.
+//! `orchestrator`: run scenarios, simulate single FMUs, inspect FMUs, reproduce the paper,
+//! analyse the convergence of learning.
 #![deny(unsafe_code)]
 
 mod args;
@@ -29,6 +30,8 @@ fn main() -> ExitCode {
         args::Command::Simulate(a) => commands::simulate::run(a),
         args::Command::Info(a) => commands::info::run(a),
         args::Command::Paper(a) => commands::paper::run(a),
+        args::Command::Analyze(a) => commands::analyze::run(a),
+        args::Command::Sweep(a) => commands::sweep::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,9 +5,11 @@
 //! file or the complete new one, never a torn file that `--resume` or a reader would misparse.
 
 mod atomic;
+pub mod convergence_plot;
 mod csv;
 pub mod plots;
 mod recording;
+pub mod sweep_plots;
 
 use std::path::PathBuf;
 
