@@ -240,7 +240,7 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
     .unwrap();
     for signal in ["INT", "TERM", "HUP"] {
         let out = tmp.path().join(format!("out-{signal}"));
-        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
             .arg("run")
             .arg(&s)
             .arg("--out")

@@ -13,10 +13,6 @@
 
 mod common;
 
-use std::path::Path;
-
-use fmi2::import::{Fmu, Instance};
-
 /// The half-unit-of-last-digit tolerance of a printed figure, plus the stated 2e-5 relative
 /// agreement of the two models.
 fn tolerance(printed: &str) -> f64 {

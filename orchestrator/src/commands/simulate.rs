@@ -619,7 +619,7 @@ impl Recorder {
     }
 
     /// The String columns recorded so far, as (column, values).
-    fn take_text(&mut self) -> Vec<(usize, Vec<String>)> {
+    fn take_text(&mut self) -> TextColumns {
         self.strings
             .iter_mut()
             .map(|(_, column, values)| (*column, std::mem::take(values)))
@@ -666,6 +666,9 @@ fn report_log(inst: &Instance, status: Status, verbose: bool) {
     }
 }
 
+/// String columns of a recording: (column, one value per row).
+type TextColumns = Vec<(usize, Vec<String>)>;
+
 /// Instantiates, initializes and steps the FMU over the grid, returning the recording, its
 /// String columns, and why it ended early (fmi2Discard, with or without a request to
 /// terminate), if it did.
@@ -673,7 +676,7 @@ fn simulate(
     fmu: &Fmu,
     plan: &mut Plan,
     verbose: bool,
-) -> Result<(Recording, Vec<(usize, Vec<String>)>, Option<String>)> {
+) -> Result<(Recording, TextColumns, Option<String>)> {
     let md = fmu.model_description();
     let mut inst = fmu
         .instantiate(&md.model_name, verbose)
