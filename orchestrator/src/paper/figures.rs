@@ -144,8 +144,7 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     } else {
         d.recordings.iter().collect()
     };
-    let envs: Vec<(usize, (Vec<f64>, Vec<f64>))> =
-        shown.iter().map(|(k, r)| (*k, envelope(r))).collect();
+    let envs: Vec<(usize, _)> = shown.iter().map(|(k, r)| (*k, envelope(r))).collect();
     let top_lines: Vec<Line<'_>> = envs
         .iter()
         .map(|(k, (x, y))| {
