@@ -148,6 +148,32 @@ impl HlcsController {
                 reference.pose.to_xyz_euler()
             ))
         })?;
+        // Never hand non-finite commands on with fmi2OK: the plant would then blame its own
+        // input. The first non-finite output is named with the time.
+        let outputs = [
+            ("force", &out.force),
+            ("memory_next", &out.memory_next),
+            ("length_ref", &out.length_ref),
+            ("error", &out.error),
+        ];
+        for (name, v) in outputs {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(ModelError::error(format!(
+                    "control law failed at t = {t} s: output {name}[{}] = {} is not finite \
+                     (inputs length = {:?} m, memory = {:?} N)",
+                    i + 1,
+                    v[i],
+                    input.length.as_slice(),
+                    input.memory.as_slice()
+                )));
+            }
+        }
+        if !integral.iter().all(|x| x.is_finite()) {
+            return Err(ModelError::error(format!(
+                "control law failed at t = {t} s: the error integral {:?} is not finite",
+                integral.as_slice()
+            )));
+        }
         if commit {
             sim.law.integral = integral;
         }

@@ -1,11 +1,13 @@
 //! The co-simulation master: Gauss–Seidel stepping at t_n = t_0 + n·h, repeated trials
-//! from the same initial state, and double-buffered iteration memory (docs/model.md §6).
+//! from the same initial state, and double-buffered iteration memory with a per-channel
+//! update stage between trials (docs/model.md §6, §9).
 //!
 //! All buffers are sized once per campaign; the per-step loop only copies between
 //! preallocated slices and calls the FMUs.
 
 use std::ops::Range;
 
+use ckcm::learning::MemoryUpdate;
 use fmi2::import::{Fmu, ImportError, Instance};
 
 use crate::output::Recording;
@@ -39,6 +41,11 @@ pub enum MasterError {
         last_successful_time: Option<f64>,
         terminated: bool,
         source: Box<ImportError>,
+    },
+    #[error("memory channel {channel:?}: {source}")]
+    Update {
+        channel: String,
+        source: ckcm::learning::UpdateError,
     },
     #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
     Setup {
@@ -101,6 +108,19 @@ struct Channel {
     producer: usize,
     read: Vec<f64>,
     write: Vec<f64>,
+    /// The robust update between trials; `None`: the paper's plain buffer swap.
+    update: Option<MemoryUpdate>,
+}
+
+impl Channel {
+    /// End of a trial: the update stage turns the written m_k into u_{k+1}
+    /// (docs/model.md §9), which becomes the read buffer of the next trial.
+    fn end_trial(&mut self) {
+        if let Some(u) = &mut self.update {
+            u.apply(&self.read, &mut self.write);
+        }
+        std::mem::swap(&mut self.read, &mut self.write);
+    }
 }
 
 /// Loaded FMUs, instances and buffers for one scenario.
@@ -114,10 +134,13 @@ pub struct Master<'s> {
     wiring: Vec<Wiring>,
     bus: Vec<f64>,
     channels: Vec<Channel>,
-    /// One sample: recorded columns, then the six leg errors, then x, y, z.
+    /// One sample: recorded columns, then the six leg errors (or six references and six
+    /// true lengths), then x, y, z.
     row: Vec<f64>,
     column_names: Vec<String>,
     has_error: bool,
+    /// Whether the leg errors are reference − length rather than an error output.
+    error_difference: bool,
     has_pose: bool,
     initialized_once: bool,
 }
@@ -162,14 +185,20 @@ impl<'s> Master<'s> {
                 }
             }
         };
-        for l in scenario.connections.iter().chain(&scenario.memory) {
+        for l in scenario
+            .connections
+            .iter()
+            .chain(scenario.memory.iter().map(|m| &m.link))
+        {
             need(&l.from);
         }
         for p in &scenario.record.ports {
             need(p);
         }
         if let Some(m) = &scenario.metrics {
-            need(&m.error);
+            for p in m.error.ports() {
+                need(p);
+            }
             if let Some(p) = &m.pose {
                 need(p);
             }
@@ -207,7 +236,8 @@ impl<'s> Master<'s> {
         }
         let steps = scenario.steps;
         let mut channels = Vec::new();
-        for (c, l) in scenario.memory.iter().enumerate() {
+        for (c, m) in scenario.memory.iter().enumerate() {
+            let l = &m.link;
             let width = l.from.value_references.len();
             let from_slots = l
                 .from
@@ -220,18 +250,30 @@ impl<'s> Master<'s> {
                 w.in_vrs.push(vr);
                 w.in_src.push(Source::Memory(c, i));
             }
+            let update = match m.update {
+                None => None,
+                Some(settings) => Some(
+                    MemoryUpdate::new(settings, steps, width, scenario.step_size).map_err(
+                        |source| MasterError::Update {
+                            channel: l.to.reference.clone(),
+                            source,
+                        },
+                    )?,
+                ),
+            };
             channels.push(Channel {
                 width,
                 from_slots,
                 producer: l.from.fmu,
                 read: vec![0.0; steps * width],
                 write: vec![0.0; steps * width],
+                update,
             });
         }
         let mut column_names = Vec::new();
         let mut taps: Vec<&Port> = scenario.record.ports.iter().collect();
         let metrics = scenario.metrics.as_ref();
-        taps.extend(metrics.map(|m| &m.error));
+        taps.extend(metrics.into_iter().flat_map(|m| m.error.ports()));
         taps.extend(metrics.and_then(|m| m.pose.as_ref()));
         let mut columns = 0;
         for (t, p) in taps.iter().enumerate() {
@@ -269,6 +311,8 @@ impl<'s> Master<'s> {
             column_names,
             wiring,
             has_error: metrics.is_some(),
+            error_difference: metrics
+                .is_some_and(|m| matches!(m.error, crate::scenario::LegError::Difference { .. })),
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
         })
@@ -289,7 +333,7 @@ impl<'s> Master<'s> {
         self.scenario
             .memory
             .iter()
-            .flat_map(|l| l.from.names.iter().cloned())
+            .flat_map(|m| m.link.from.names.iter().cloned())
             .collect()
     }
 
@@ -336,8 +380,10 @@ impl<'s> Master<'s> {
             if self.initialized_once {
                 inst.reset().map_err(setup("fmi2Reset"))?;
             }
+            // Per-trial values (e.g. a noise seed) make each trial draw fresh noise while
+            // trial k always gets the same values, also on resume.
             for s in &spec.settings {
-                match s.value {
+                match s.value_in_trial(trial) {
                     Value::Real(x) => inst.set_real(&[s.value_reference], &[x]).map(|_| ()),
                     Value::Integer(x) => inst.set_integer(&[s.value_reference], &[x]).map(|_| ()),
                     Value::Boolean(x) => inst.set_boolean(&[s.value_reference], &[x]).map(|_| ()),
@@ -372,8 +418,8 @@ impl<'s> Master<'s> {
     }
 
     /// Runs trial `trial` with the current read buffers, filling the write buffers,
-    /// `recording` (if given; cleared first) and `signals` (cleared first). On success the
-    /// write buffers become the read buffers (the memory of the next trial).
+    /// `recording` (if given; cleared first) and `signals` (cleared first). On success each
+    /// channel's update stage makes the memory of the next trial from them.
     pub fn run_trial(
         &mut self,
         trial: usize,
@@ -474,13 +520,20 @@ impl<'s> Master<'s> {
                 }
             }
             let ncols = self.column_names.len();
+            let mut pose_col = ncols;
             if self.has_error {
+                let taps = &self.row[ncols..];
                 for (leg, e) in signals.error.iter_mut().enumerate() {
-                    e.push(self.row[ncols + leg]);
+                    e.push(if self.error_difference {
+                        taps[leg] - taps[6 + leg]
+                    } else {
+                        taps[leg]
+                    });
                 }
+                pose_col += if self.error_difference { 12 } else { 6 };
             }
             if self.has_pose {
-                let p = &self.row[ncols + 6..ncols + 9];
+                let p = &self.row[pose_col..pose_col + 3];
                 signals.position.push([p[0], p[1], p[2]]);
             }
             signals.time.push(t);
@@ -492,7 +545,7 @@ impl<'s> Master<'s> {
             on_step(n);
         }
         for ch in &mut self.channels {
-            std::mem::swap(&mut ch.read, &mut ch.write);
+            ch.end_trial();
         }
         Ok(())
     }

@@ -2,6 +2,8 @@
 //!
 //! Needs the packaged FMUs (`cargo xtask fmu`; `cargo xtask test` builds them first).
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,15 +12,11 @@ use std::time::{Duration, Instant};
 use assert_cmd::cargo::CommandCargoExt;
 
 fn fmu_dir() -> PathBuf {
-    let dir = std::env::var_os("CKCM_FMU_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"));
-    assert!(
-        dir.join("CkcmPlant.fmu").exists() && dir.join("HlcsController.fmu").exists(),
-        "packaged FMUs not found in {}: run `cargo xtask fmu` first",
-        dir.display()
-    );
-    dir
+    common::built_fmu("CkcmPlant");
+    common::built_fmu("HlcsController")
+        .parent()
+        .expect("an FMU inside a directory")
+        .to_path_buf()
 }
 
 fn orchestrator() -> Command {

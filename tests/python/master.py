@@ -9,6 +9,8 @@ implements the semantics of docs/model.md §6 and nothing more:
 * the iteration memory ("LSI RAM"): the controller reads u_k(t_n) from a read buffer and
   returns u_{k+1}(t_n) as `memory_next`, which goes into a write buffer; at the end of a
   trial the write buffer becomes the read buffer. Trial 0 reads zeros.
+* optionally, the robust memory update of docs/model.md §9 between trials
+  (`MemoryUpdate`, applied with scipy): u_{k+1} = Q[α·u_k + g·shift_δ(m_k − u_k)].
 
 Use it as a library (``run_trials``) or as a script::
 
@@ -27,6 +29,7 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+from scipy import signal
 
 #: Communication step (s): the controller's sample period and DefaultExperiment stepSize.
 STEP_SIZE = 1e-3
@@ -52,6 +55,51 @@ def default_fmu_dir() -> Path:
     """Where the packaged FMUs are: `$CKCM_FMU_DIR`, else `<repo>/target/fmu`."""
     env = os.environ.get("CKCM_FMU_DIR")
     return Path(env) if env else Path(__file__).resolve().parents[2] / "target" / "fmu"
+
+
+@dataclass(frozen=True)
+class MemoryUpdate:
+    """The between-trial update of one memory channel (docs/model.md §9), the same keys as a
+    scenario's `[memory.update]` table:
+
+        u_{k+1} = Q[ forgetting·u_k + gain·shift_lead(m_k − u_k) ]
+
+    with u_k the memory read during trial k and m_k the `memory_next` written during it;
+    shift_lead(Δ)(n) = Δ(n + lead), the last `lead` samples repeating Δ(N − 1); Q, when
+    `filter` is "butterworth", is `filtfilt(b, a, ·, axis=0, method="gust")` with
+    `b, a = butter(order, cutoff, fs=1/h)`.
+    """
+
+    filter: str | None = None
+    order: int | None = None
+    cutoff: float | None = None  # Hz
+    lead: int = 0  # samples
+    forgetting: float = 1.0
+    gain: float = 1.0
+
+    def is_identity(self) -> bool:
+        """The paper's update: m_k becomes u_{k+1} unchanged."""
+        return self.filter is None and self.lead == 0 and self.forgetting == 1.0 and self.gain == 1.0
+
+    def apply(self, u: np.ndarray, m: np.ndarray, step_size: float) -> np.ndarray:
+        """u_{k+1} from u_k and m_k (arrays of samples × elements)."""
+        if self.is_identity():
+            return m
+        delta = m - u
+        if self.lead:
+            tail = np.repeat(delta[-1:], self.lead, axis=0)
+            delta = np.concatenate((delta[self.lead :], tail))
+        x = self.forgetting * u + self.gain * delta
+        if self.filter is not None:
+            if self.filter != "butterworth":
+                raise ValueError(f"unknown memory filter {self.filter!r}")
+            b, a = signal.butter(self.order, self.cutoff, fs=1 / step_size)
+            x = signal.filtfilt(b, a, x, axis=0, method="gust")
+        return x
+
+
+#: The robust setting of scenarios/*-robust.toml.
+ROBUST = MemoryUpdate(filter="butterworth", order=4, cutoff=8.0, lead=25)
 
 
 class Slave:
@@ -133,6 +181,9 @@ class Trial:
     force: np.ndarray
     memory_next: np.ndarray
     error: np.ndarray
+    pose: np.ndarray
+    #: u_{k+1}: the memory this trial leaves for the next, after the update.
+    memory: np.ndarray
 
 
 class HlcsMaster:
@@ -147,8 +198,10 @@ class HlcsMaster:
         psi: float = PSI_HLCS,
         step_size: float = STEP_SIZE,
         start_time: float = 0.0,
+        update: MemoryUpdate | None = None,
     ) -> None:
         self.h = step_size
+        self.update = MemoryUpdate() if update is None else update
         self.t0 = start_time
         self.duration = DURATION[trajectory] if duration is None else duration
         self.stop_time = start_time + self.duration
@@ -166,6 +219,7 @@ class HlcsMaster:
         self.c_out = self.controller.vrs(legs("force") + legs("memory_next") + legs("error"))
         self.p_in = self.plant.vrs(legs("force"))
         self.p_out = self.plant.vrs(legs("length") + legs("velocity"))
+        self.p_pose = self.plant.vrs(legs("pose"))
         # The iteration memory u_k(t_n): row n of the read buffer feeds sample n.
         self.memory = np.zeros((self.steps, LEGS))
 
@@ -177,7 +231,10 @@ class HlcsMaster:
         """Runs one trial from the initial state with the current memory, then makes the
         memory it wrote the memory of the next trial."""
         n_steps, h = self.steps, self.h
-        rows = {k: np.empty((n_steps, LEGS)) for k in ("length", "velocity", "force", "error")}
+        rows = {
+            k: np.empty((n_steps, LEGS))
+            for k in ("length", "velocity", "force", "error", "pose")
+        }
         write = np.empty((n_steps, LEGS))  # u_{k+1}(t_n), the write buffer
 
         # Both FMUs start every trial from the same initial state.
@@ -190,6 +247,7 @@ class HlcsMaster:
             t = self.time(n)
             rows["length"][n] = y[:LEGS]
             rows["velocity"][n] = y[LEGS:]
+            rows["pose"][n] = self.plant.fmu.getReal(self.p_pose)
 
             # (1) Controller inputs: plant outputs at t_n and u_k(t_n) from the read buffer.
             self.controller.fmu.setReal(self.c_in, [*y, *self.memory[n]])
@@ -207,11 +265,13 @@ class HlcsMaster:
             self.plant.fmu.doStep(t, h)
             y = self.plant.fmu.getReal(self.p_out)
 
-        # End of trial: the write buffer becomes the read buffer.
-        self.memory = write
+        # End of trial: the update makes u_{k+1} from u_k and the written m_k; it becomes
+        # the read buffer (the paper's update: the write buffer itself).
+        self.memory = self.update.apply(self.memory, write, h)
         return Trial(
             time=self.t0 + np.arange(n_steps) * h,
             memory_next=write.copy(),
+            memory=self.memory.copy(),
             **rows,
         )
 
@@ -228,6 +288,7 @@ def run_trials(
     duration: float | None = None,
     learning: bool = True,
     psi: float = PSI_HLCS,
+    update: MemoryUpdate | None = None,
 ) -> list[Trial]:
     """Runs `trials` consecutive trials (trial 0 with zero memory) and returns each one's
     signals. The FMUs are instantiated once and reset between trials."""
@@ -237,6 +298,7 @@ def run_trials(
         duration=duration,
         learning=learning,
         psi=psi,
+        update=update,
     )
     try:
         return [master.run_trial() for _ in range(trials)]
@@ -256,6 +318,11 @@ def main() -> None:
         default="hlcs",
         help="hlcs: PID-type learning; pd-ilc: Psi = 0; pid: learning off",
     )
+    parser.add_argument(
+        "--robust",
+        action="store_true",
+        help="robust memory update: Butterworth order 4, 8 Hz, lead 25 (docs/model.md §9)",
+    )
     parser.add_argument("--fmu-dir", type=Path, default=default_fmu_dir())
     args = parser.parse_args()
 
@@ -267,6 +334,7 @@ def main() -> None:
         duration=args.duration,
         learning=args.scheme != "pid",
         psi=0.0 if args.scheme == "pd-ilc" else PSI_HLCS,
+        update=ROBUST if args.robust else None,
     )
     elapsed = time.perf_counter() - started
     for k, trial in enumerate(results):

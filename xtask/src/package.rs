@@ -7,22 +7,25 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{FMUS, cargo, docs, run};
+use crate::{FMUS, cargo, docs, run, target_dir};
 
-/// Builds both FMU crates in release mode and writes `target/fmu/<id>.fmu`.
+/// Builds both FMU crates in release mode and writes `<target dir>/fmu/<id>.fmu`, from the
+/// libraries of the same target directory (`$CARGO_TARGET_DIR` honoured).
 pub fn build_fmus(root: &Path) -> Result<()> {
+    let target = target_dir(root);
     let mut cmd = Command::new(cargo());
     cmd.current_dir(root)
+        .env("CARGO_TARGET_DIR", &target)
         .args(["build", "--release", "--quiet"]);
     for (package, _) in FMUS {
         cmd.args(["-p", package]);
     }
     run(&mut cmd)?;
-    let out_dir = root.join("target/fmu");
+    let out_dir = target.join("fmu");
     fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
     for (package, id) in FMUS {
-        let lib = root
-            .join("target/release")
+        let lib = target
+            .join("release")
             .join(format!("lib{}.so", package_lib_name(package)));
         let xml = root.join("modelDescription").join(format!("{id}.xml"));
         let fmu = out_dir.join(format!("{id}.fmu"));

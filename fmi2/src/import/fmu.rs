@@ -5,14 +5,13 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use libloading::Library;
-use tempfile::TempDir;
-
+use super::extract::ExtractionDir;
 use super::functions::Functions;
 use super::instance::Instance;
 use super::{ImportError, PLATFORM, SHARED_LIBRARY_EXTENSION};
 use crate::md::ModelDescription;
 use crate::types::{FMI_VERSION, TYPES_PLATFORM};
+use libloading::Library;
 
 /// What every instance of an FMU shares. Field order is drop order: the function
 /// pointers go first, then the library is unloaded, then the unpacked files removed.
@@ -20,7 +19,7 @@ use crate::types::{FMI_VERSION, TYPES_PLATFORM};
 pub(crate) struct Loaded {
     pub(crate) functions: Functions,
     _library: Library,
-    pub(crate) dir: TempDir,
+    pub(crate) dir: ExtractionDir,
 }
 
 /// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
@@ -34,8 +33,9 @@ pub struct Fmu {
 }
 
 impl Fmu {
-    /// Opens `path`: unzips it into a temporary directory (removed when the last of the
-    /// `Fmu` and its instances is dropped), parses and validates modelDescription.xml,
+    /// Opens `path`: unzips it into a temporary directory `fmi2-import-<pid>-*` (removed
+    /// when the last of the `Fmu` and its instances is dropped; see
+    /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
     /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
     /// and resolves all 34 FMI 2.0 co-simulation functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
@@ -54,13 +54,10 @@ impl Fmu {
         if archive.index_for_name("modelDescription.xml").is_none() {
             return Err(ImportError::NoModelDescription { path });
         }
-        let dir = tempfile::Builder::new()
-            .prefix("fmi2-import-")
-            .tempdir()
-            .map_err(|source| ImportError::Io {
-                path: std::env::temp_dir(),
-                source,
-            })?;
+        let dir = ExtractionDir::new().map_err(|source| ImportError::Io {
+            path: std::env::temp_dir(),
+            source,
+        })?;
         // `extract` refuses entries that would escape the directory (zip-slip).
         archive
             .extract(dir.path())

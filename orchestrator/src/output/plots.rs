@@ -118,7 +118,7 @@ const VIRIDIS: [(f64, f64, f64); 5] = [
     (220.0, 200.0, 30.0),
 ];
 
-const FONT: &str = "sans-serif";
+pub(super) const FONT: &str = "sans-serif";
 const TITLE_HEIGHT: u32 = 50;
 /// Width of the legend strip right of each panel, px.
 const LEGEND_WIDTH: u32 = 210;
@@ -127,8 +127,8 @@ const PANEL_HEIGHT: u32 = 330;
 /// Width of a stacked figure, px (readable at 1100 px).
 const FIGURE_WIDTH: u32 = 1100;
 
-type DrawResult = Result<(), Box<dyn Error>>;
-type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+pub(super) type DrawResult = Result<(), Box<dyn Error>>;
+pub(super) type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
 /// Colour `i` of the categorical set (legs, schemes).
 pub fn colour(i: usize) -> RGBColor {
@@ -539,7 +539,12 @@ pub fn path_projections(
 
 /// Renders a titled chart into memory, then writes it atomically. `draw` gets the area below
 /// the title.
-fn render<F>(path: &Path, size: (u32, u32), title: &str, draw: F) -> Result<(), OutputError>
+pub(super) fn render<F>(
+    path: &Path,
+    size: (u32, u32),
+    title: &str,
+    draw: F,
+) -> Result<(), OutputError>
 where
     F: FnOnce(&Area<'_>) -> DrawResult,
 {
@@ -567,7 +572,7 @@ fn plot_error(path: &Path, message: &str) -> OutputError {
 
 /// Splits a sequence of points into maximal runs of finite points: a NaN or infinity in
 /// either coordinate ends the current line instead of being drawn at a bogus pixel.
-fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+pub(super) fn finite_runs(points: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
     let mut runs = Vec::new();
     let mut current = Vec::new();
     for p in points {

@@ -148,6 +148,10 @@ pub(super) fn run_case(
             fmu_logging: false,
             progress: opts.progress && show_progress,
             stop_after: None,
+            // The study owns its output folders and regenerates them.
+            force: true,
+            memory_limit_mib: None,
+            crash_at: None,
         },
     )?;
     Ok(CaseResult {
