@@ -45,12 +45,11 @@ fn tick(v: f64) -> String {
     if (1e-3..1e4).contains(&a) {
         let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
         let s = format!("{v:.digits$}");
-        let s = if s.contains('.') {
+        if s.contains('.') {
             s.trim_end_matches('0').trim_end_matches('.').to_string()
         } else {
             s
-        };
-        s
+        }
     } else {
         format!("{v:.1e}")
     }
@@ -218,21 +217,34 @@ pub fn heatmap(
     finish(path, svg, drawn)
 }
 
+/// One group's quantiles of a metric per trial (entry k is trial k).
+#[derive(Debug, Clone)]
+pub struct Band {
+    pub label: String,
+    pub median: Vec<f64>,
+    pub p5: Vec<f64>,
+    pub p95: Vec<f64>,
+}
+
 /// Median (line) and 5–95 % band (shaded) of a metric per trial, one colour per group; log y.
-/// Each group is `(label, median, p5, p95)`, entry k being trial k.
 pub fn envelope(
     path: &Path,
     title: &str,
     y_label: &str,
-    groups: &[(String, Vec<f64>, Vec<f64>, Vec<f64>)],
+    groups: &[Band],
 ) -> Result<(), OutputError> {
     let all = || {
         groups
             .iter()
-            .flat_map(|(_, m, lo, hi)| m.iter().chain(lo).chain(hi).copied())
+            .flat_map(|b| b.median.iter().chain(&b.p5).chain(&b.p95).copied())
     };
     let (y_lo, y_hi) = log_bounds(all()).unwrap_or((1e-3, 1.0));
-    let trials = groups.iter().map(|g| g.1.len()).max().unwrap_or(1).max(1);
+    let trials = groups
+        .iter()
+        .map(|g| g.median.len())
+        .max()
+        .unwrap_or(1)
+        .max(1);
     let ok = |v: f64| v.is_finite() && v > 0.0;
     let mut svg = String::new();
     let drawn = (|| -> Result<(), Box<dyn Error>> {
@@ -255,7 +267,13 @@ pub fn envelope(
             .label_style((FONT, 14))
             .axis_desc_style((FONT, 16))
             .draw()?;
-        for (g, (_, median, p5, p95)) in groups.iter().enumerate() {
+        for (
+            g,
+            Band {
+                median, p5, p95, ..
+            },
+        ) in groups.iter().enumerate()
+        {
             let c = COLOURS[g % COLOURS.len()];
             let band: Vec<(f64, f64)> = (0..trials)
                 .filter(|&k| {
@@ -283,7 +301,7 @@ pub fn envelope(
             chart.draw_series(LineSeries::new(line.clone(), c.stroke_width(2)))?;
             chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, c.filled())))?;
         }
-        for (g, (label, ..)) in groups.iter().enumerate() {
+        for (g, Band { label, .. }) in groups.iter().enumerate() {
             let y = 30 + 44 * g as i32;
             let c = COLOURS[g % COLOURS.len()];
             legend.draw(&PathElement::new(vec![(5, y), (30, y)], c.stroke_width(2)))?;

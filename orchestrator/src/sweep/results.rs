@@ -285,12 +285,12 @@ fn write_figures(
                     })
                     .collect()
             };
-            series.push((
-                label.clone(),
-                per_trial(0.5),
-                per_trial(0.05),
-                per_trial(0.95),
-            ));
+            series.push(sweep_plots::Band {
+                label: label.clone(),
+                median: per_trial(0.5),
+                p5: per_trial(0.05),
+                p95: per_trial(0.95),
+            });
         }
         let file = "envelope.svg".to_string();
         sweep_plots::envelope(
