@@ -79,6 +79,9 @@ fn run(text: &str, dir: &Path, resume: bool, stop_after: Option<usize>) -> Vec<T
             fmu_logging: false,
             progress: false,
             stop_after,
+            force: true,
+            memory_limit_mib: None,
+            crash_at: None,
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
