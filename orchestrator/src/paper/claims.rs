@@ -97,8 +97,11 @@ fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> PaperError {
     }
 }
 
+/// One CSV row: its line number and its fields by header name.
+type Row = (u64, BTreeMap<String, String>);
+
 /// Reads a CSV with a header into (line number, field map) rows.
-fn read_rows(path: &Path) -> Result<Vec<(u64, BTreeMap<String, String>)>, PaperError> {
+fn read_rows(path: &Path) -> Result<Vec<Row>, PaperError> {
     let mut reader = csv::Reader::from_path(path).map_err(|e| csv_error(path, 0, e.to_string()))?;
     let header: Vec<String> = reader
         .headers()

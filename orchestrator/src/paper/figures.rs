@@ -66,8 +66,11 @@ fn recording(d: &CaseData, k: usize) -> Result<&Recording, PaperError> {
         })
 }
 
+/// Bucket centres (s) and the max of |e| over the legs in each bucket (mm).
+type Envelope = (Vec<f64>, Vec<f64>);
+
 /// Max over legs of |e| per time bucket, mm: (bucket centres, maxima).
-fn envelope(rec: &Recording) -> (Vec<f64>, Vec<f64>) {
+fn envelope(rec: &Recording) -> Envelope {
     let errors = leg_errors(rec);
     let step = match rec.time.as_slice() {
         [a, b, ..] => b - a,
@@ -144,8 +147,7 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     } else {
         d.recordings.iter().collect()
     };
-    let envs: Vec<(usize, (Vec<f64>, Vec<f64>))> =
-        shown.iter().map(|(k, r)| (*k, envelope(r))).collect();
+    let envs: Vec<(usize, Envelope)> = shown.iter().map(|(k, r)| (*k, envelope(r))).collect();
     let top_lines: Vec<Line<'_>> = envs
         .iter()
         .map(|(k, (x, y))| {
