@@ -347,7 +347,7 @@ mod tests {
         let text = table("", &["name", "description"], &rows);
         assert_eq!(
             text,
-            "name         description\nx\\u{1b}[2J  a\\u{a}b\\\\c\n"
+            "name        description\nx\\u{1b}[2J  a\\u{a}b\\\\c\n"
         );
         assert!(!text.contains('\u{1b}'));
         let kv = key_values("", &[("Model", "m\rX".into())]);

@@ -97,8 +97,11 @@ fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> PaperError {
     }
 }
 
-/// Reads a CSV with a header into (line number, field map) rows.
-fn read_rows(path: &Path) -> Result<Vec<(u64, BTreeMap<String, String>)>, PaperError> {
+/// A CSV row: its 1-based line and its fields by column name.
+type Row = (u64, BTreeMap<String, String>);
+
+/// Reads a CSV with a header into rows.
+fn read_rows(path: &Path) -> Result<Vec<Row>, PaperError> {
     let mut reader = csv::Reader::from_path(path).map_err(|e| csv_error(path, 0, e.to_string()))?;
     let header: Vec<String> = reader
         .headers()
@@ -717,7 +720,8 @@ mod tests {
     #[test]
     fn each_failing_part_downgrades_its_claim_only() {
         let (pid, pd, hl) = (Scheme::Pid, Scheme::PdIlc, Scheme::Hlcs);
-        let cases: Vec<(usize, Box<dyn Fn(&mut World)>)> = vec![
+        type Change = Box<dyn Fn(&mut World)>;
+        let cases: Vec<(usize, Change)> = vec![
             // PD-type ILC as fast as HLCS on the line.
             (
                 1,

@@ -23,12 +23,69 @@ use crate::output::plots::{
 pub struct CaseData {
     /// The campaign's result.
     pub result: CaseResult,
-    /// Recorded trials, in trial order.
-    pub recordings: Vec<(usize, Recording)>,
+    /// Recorded trials, in trial order, reduced to what the figures draw.
+    pub recordings: Vec<TrialData>,
     /// Metrics of the recorded trials, same order.
     pub metrics: Vec<TrialMetrics>,
     /// The desired trajectory.
     pub trajectory: Trajectory,
+}
+
+/// What the figures need of one recorded trial. Full signals are kept only for the trials
+/// drawn in full (`full`); of the others, only the leg-1 force and learned input, so the
+/// study's memory stays small (a 15 s recording is 3 MB).
+#[derive(Debug)]
+pub struct TrialData {
+    /// Trial index.
+    pub trial: usize,
+    /// The recording, without the columns this trial's figures do not draw.
+    pub rec: Recording,
+    /// Max over legs of |e| per time bucket, mm: (bucket centres, maxima).
+    pub envelope: (Vec<f64>, Vec<f64>),
+    /// Error amplitude spectrum up to [`SPECTRUM_MAX_HZ`], without 0 Hz: (Hz, mm).
+    pub spectrum: (Vec<f64>, Vec<f64>),
+    /// |p − p_d| at every sample, mm.
+    pub path_error: Vec<f64>,
+}
+
+impl TrialData {
+    /// Derives the figure data of trial `k` and drops the columns no figure needs.
+    pub fn new(k: usize, mut rec: Recording, trajectory: &Trajectory, full: bool) -> Self {
+        let envelope = envelope(&rec);
+        let step = match rec.time.as_slice() {
+            [a, b, ..] => b - a,
+            _ => 1e-3,
+        };
+        let (f, p) = error_spectrum(&leg_errors(&rec), step);
+        let keep = f.partition_point(|&x| x <= SPECTRUM_MAX_HZ).max(1);
+        // Amplitude in mm (square root of power), which reads more naturally; the 0 Hz bin
+        // is empty after removing the mean, so it is left out.
+        let spectrum = (
+            f[1.min(keep)..keep].to_vec(),
+            p[1.min(keep)..keep]
+                .iter()
+                .map(|v| v.sqrt() * 1e3)
+                .collect(),
+        );
+        let path_error = scale(&path_error(&rec, trajectory), 1e3);
+        if !full {
+            let (names, columns): (Vec<String>, Vec<Vec<f64>>) = rec
+                .names
+                .drain(..)
+                .zip(rec.columns.drain(..))
+                .filter(|(n, _)| n == "controller.force[1]" || n == "controller.memory_next[1]")
+                .unzip();
+            rec.names = names;
+            rec.columns = columns;
+        }
+        TrialData {
+            trial: k,
+            rec,
+            envelope,
+            spectrum,
+            path_error,
+        }
+    }
 }
 
 /// Width of a time bucket of the |e| envelope, s: fine enough for the 5–7 Hz growth.
@@ -56,8 +113,8 @@ fn find(data: &[CaseData], kind: TrajectoryKind, scheme: Scheme) -> Result<&Case
 fn recording(d: &CaseData, k: usize) -> Result<&Recording, PaperError> {
     d.recordings
         .iter()
-        .find(|(j, _)| *j == k)
-        .map(|(_, r)| r)
+        .find(|t| t.trial == k)
+        .map(|t| &t.rec)
         .ok_or_else(|| {
             PaperError::Invalid(format!(
                 "{}: trial {k} was not recorded",
@@ -139,16 +196,13 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
             .summaries
             .windows(2)
             .all(|w| summaries_equal(&w[0], &w[1]));
-    let shown: Vec<&(usize, Recording)> = if identical {
-        d.recordings.iter().take(1).collect()
-    } else {
-        d.recordings.iter().collect()
-    };
-    let envs: Vec<(usize, (Vec<f64>, Vec<f64>))> =
-        shown.iter().map(|(k, r)| (*k, envelope(r))).collect();
-    let top_lines: Vec<Line<'_>> = envs
+    let shown = if identical { 1 } else { n };
+    let top_lines: Vec<Line<'_>> = d
+        .recordings
         .iter()
-        .map(|(k, (x, y))| {
+        .take(shown)
+        .map(|td| {
+            let (k, (x, y)) = (&td.trial, &td.envelope);
             let label = if identical {
                 format!("trials 0–{} (identical)", d.result.summaries.len() - 1)
             } else {
@@ -329,23 +383,27 @@ fn trajectory_point(t: &Trajectory, time: f64) -> [f64; 3] {
 fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), PaperError> {
     let kind = hlcs.result.trajectory;
     let n = hlcs.recordings.len();
-    let errs: Vec<(usize, Vec<f64>)> = hlcs
+    let pid0 = pid
         .recordings
-        .iter()
-        .map(|(k, r)| (*k, scale(&path_error(r, &hlcs.trajectory), 1e3)))
-        .collect();
-    let pid_rec = recording(pid, 0)?;
-    let pid_err = scale(&path_error(pid_rec, &pid.trajectory), 1e3);
+        .first()
+        .ok_or_else(|| PaperError::Invalid("PID: no recorded trial".into()))?;
     let mut lines: Vec<Line<'_>> = vec![Line {
         label: "PID (every trial)".into(),
-        x: &pid_rec.time,
-        y: &pid_err,
+        x: &pid0.rec.time,
+        y: &pid0.path_error,
         colour: RGBColor(0, 0, 0),
         stroke: Stroke::Dashed(2),
         markers: false,
     }];
-    for ((k, e), (_, r)) in errs.iter().zip(&hlcs.recordings) {
-        lines.push(trial_line(format!("HLCS trial {k}"), &r.time, e, *k, n));
+    for td in &hlcs.recordings {
+        let k = td.trial;
+        lines.push(trial_line(
+            format!("HLCS trial {k}"),
+            &td.rec.time,
+            &td.path_error,
+            k,
+            n,
+        ));
     }
     let title = format!(
         "Fig. {}e: {}, Cartesian path error |p − p_d| against time",
@@ -372,26 +430,12 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
 fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let kind = d.result.trajectory;
     let n = d.recordings.len();
-    let spectra: Vec<(usize, Vec<f64>, Vec<f64>)> = d
+    let lines: Vec<Line<'_>> = d
         .recordings
         .iter()
-        .map(|(k, r)| {
-            let step = match r.time.as_slice() {
-                [a, b, ..] => b - a,
-                _ => 1e-3,
-            };
-            let (f, p) = error_spectrum(&leg_errors(r), step);
-            let keep = f.partition_point(|&x| x <= SPECTRUM_MAX_HZ);
-            // Amplitude in mm (square root of power), which reads more naturally; the 0 Hz
-            // bin is empty after removing the mean, so it is left out.
-            let amp = p[1..keep.max(1)].iter().map(|v| v.sqrt() * 1e3).collect();
-            (*k, f[1..keep.max(1)].to_vec(), amp)
-        })
-        .collect();
-    let lines: Vec<Line<'_>> = spectra
-        .iter()
         .zip(&d.metrics)
-        .map(|((k, f, a), m)| {
+        .map(|(td, m)| {
+            let (k, (f, a)) = (&td.trial, &td.spectrum);
             trial_line(
                 format!(
                     "{k}: {:.1} Hz, {:.0} % > {HIGH_HZ:.0} Hz",
@@ -437,22 +481,22 @@ fn effort_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<
     let forces: Vec<(usize, Vec<f64>, Vec<f64>)> = hlcs
         .recordings
         .iter()
-        .map(|(k, r)| {
-            let f = force(r);
+        .map(|td| {
+            let f = force(&td.rec);
             let df = f.iter().zip(&f0).map(|(a, b)| a - b).collect();
-            (*k, f, df)
+            (td.trial, f, df)
         })
         .collect();
     let top: Vec<Line<'_>> = forces
         .iter()
         .zip(&hlcs.recordings)
-        .map(|((k, f, _), (_, r))| trial_line(format!("trial {k}"), &r.time, f, *k, n))
+        .map(|((k, f, _), td)| trial_line(format!("trial {k}"), &td.rec.time, f, *k, n))
         .collect();
     let mid: Vec<Line<'_>> = forces
         .iter()
         .zip(&hlcs.recordings)
         .skip(1)
-        .map(|((k, _, df), (_, r))| trial_line(format!("trial {k}"), &r.time, df, *k, n))
+        .map(|((k, _, df), td)| trial_line(format!("trial {k}"), &td.rec.time, df, *k, n))
         .collect();
     let rms: Vec<(Scheme, Vec<f64>, Vec<f64>)> = Scheme::ALL
         .into_iter()
@@ -522,20 +566,22 @@ fn learned_input_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let top: Vec<Line<'_>> = d
         .recordings
         .iter()
-        .filter_map(|(k, r)| {
+        .filter_map(|td| {
+            let k = td.trial;
             Some(trial_line(
                 format!("u{} (after trial {k})", subscript(k + 1)),
-                &r.time,
-                r.column("controller.memory_next[1]")?,
-                *k,
+                &td.rec.time,
+                td.rec.column("controller.memory_next[1]")?,
+                k,
                 n,
             ))
         })
         .collect();
-    let (k_last, last) = d
+    let last_data = d
         .recordings
         .last()
         .ok_or_else(|| PaperError::Invalid("no recorded trial".into()))?;
+    let (k_last, last) = (&last_data.trial, &last_data.rec);
     let bottom: Vec<Line<'_>> = (1..=6)
         .filter_map(|leg| {
             Some(Line {

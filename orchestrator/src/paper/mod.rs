@@ -181,10 +181,15 @@ fn case_data(opts: &PaperOptions, result: CaseResult) -> Result<CaseData, PaperE
     };
     let mut recordings = Vec::new();
     let mut metrics = Vec::new();
-    for k in recorded_trials(opts.trials, result.scheme) {
+    let recorded = recorded_trials(opts.trials, result.scheme);
+    let last = recorded.last().copied();
+    for k in recorded {
         let rec = read_recording_csv(&trial_csv(&result.dir, k))?;
         metrics.push(metrics::trial_metrics(k, &rec, &trajectory));
-        recordings.push((k, rec));
+        // Drawn in full: the trial the claims look at (leg errors, path) and the last one
+        // (learned input of every leg).
+        let full = k == figures::claim_trial(kind) || Some(k) == last;
+        recordings.push(figures::TrialData::new(k, rec, &trajectory, full));
     }
     Ok(CaseData {
         result,
