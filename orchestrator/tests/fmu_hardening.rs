@@ -127,7 +127,17 @@ fn every_parameter_range_is_enforced_on_set() {
                     }
                 }
                 VarType::Integer | VarType::Enumeration => {
-                    for bad in [min as i32 - 1, max as i32 + 1, i32::MAX, i32::MIN] {
+                    // Every Integer outside [min, max] that an Integer can hold.
+                    let outside = [
+                        i64::from(min as i32) - 1,
+                        i64::from(max as i32) + 1,
+                        i64::from(i32::MAX),
+                        i64::from(i32::MIN),
+                    ]
+                    .into_iter()
+                    .filter(|&x| x < min as i64 || x > max as i64)
+                    .filter_map(|x| i32::try_from(x).ok());
+                    for bad in outside {
                         let (status, err) = failure(inst.set_integer(&[r], &[bad]));
                         assert_eq!(status, Status::Error, "{name}: {} = {bad}", v.name);
                         assert!(
