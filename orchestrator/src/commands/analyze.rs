@@ -7,7 +7,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use ckcm::convergence::{Analysis, Butterworth, Problem, Update, analyse};
+use ckcm::convergence::{Analysis, Problem, analyse};
+use ckcm::learning::{LowPass, UpdateSettings};
 use ckcm::{Gains, Mechanism, Params, Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 use fmi2::md::{ModelDescription, VariableKind};
@@ -106,12 +107,12 @@ fn line_of(text: &str, offset: usize) -> usize {
 
 /// The first memory channel's update, as written (no filter, δ 0, α 1, g 1 when absent),
 /// then the command-line overrides; invalid values are named with their file and line.
-fn update(args: &AnalyzeArgs, file: &Path, text: &str, h: f64) -> Result<Update> {
+fn update(args: &AnalyzeArgs, file: &Path, text: &str, h: f64) -> Result<UpdateSettings> {
     let raw: RawFile =
         toml::from_str(text).with_context(|| format!("cannot read {}", file.display()))?;
     let at =
         |span: std::ops::Range<usize>| format!("{}:{}", file.display(), line_of(text, span.start));
-    let mut u = Update::default();
+    let mut u = UpdateSettings::default();
     let mut order = None;
     let mut cutoff = None;
     if let Some(r) = raw.memory.first().and_then(|m| m.update.as_ref()) {
@@ -181,17 +182,26 @@ fn update(args: &AnalyzeArgs, file: &Path, text: &str, h: f64) -> Result<Update>
         u.gain = g;
     }
     u.filter = match (cutoff, order) {
-        (Some(cutoff), order) => Some(Butterworth {
-            order: order.unwrap_or(4),
-            cutoff,
+        (Some(cutoff), order) => Some(LowPass {
+            order: order.unwrap_or(4) as usize,
+            cutoff_hz: cutoff,
         }),
         (None, Some(_)) if args.order.is_some() && !args.no_filter => {
             bail!("--order needs a cutoff (--cutoff, or cutoff in [memory.update])")
         }
         (None, _) => None,
     };
-    u.validate(h)
-        .with_context(|| format!("{}: memory update", file.display()))?;
+    for (name, value) in [("forgetting", u.forgetting), ("gain", u.gain)] {
+        anyhow::ensure!(
+            value.is_finite(),
+            "{}: memory update: {name} = {value} is not finite",
+            file.display()
+        );
+    }
+    if let Some(f) = u.filter {
+        ckcm::learning::butter_lowpass(f.order, f.cutoff_hz, 1.0 / h)
+            .with_context(|| format!("{}: memory update", file.display()))?;
+    }
     Ok(u)
 }
 
@@ -368,11 +378,11 @@ fn write_csv(path: &Path, a: &Analysis) -> Result<()> {
     Ok(())
 }
 
-fn describe_update(u: &Update) -> String {
+fn describe_update(u: &UpdateSettings) -> String {
     let filter = match u.filter {
         Some(q) => format!(
             "Butterworth order {} cutoff {} Hz (zero phase)",
-            q.order, q.cutoff
+            q.order, q.cutoff_hz
         ),
         None => "no filter".to_string(),
     };
@@ -397,7 +407,7 @@ fn summary(name: &str, p: &Problem, a: &Analysis) -> String {
     let _ = writeln!(s, "# Convergence analysis: {name}\n");
     let _ = writeln!(
         s,
-        "- Update: {}; h = {} s, zero-order hold.",
+        "- UpdateSettings: {}; h = {} s, zero-order hold.",
         describe_update(&p.update),
         p.h
     );
