@@ -20,6 +20,7 @@ use nalgebra::{Complex, Matrix6};
 use crate::control::Gains;
 use crate::dynamics::DynamicsError;
 use crate::kinematics::{Mechanism, Pose};
+use crate::learning::{LowPass, UpdateSettings};
 use crate::trajectory::Trajectory;
 
 /// Number of leg-space modes.
@@ -59,73 +60,34 @@ fn check(
     }
 }
 
-/// The zero-phase Butterworth low-pass Q of the memory update.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Butterworth {
-    /// Order N_Q of one pass (the forward-backward filter has twice this order), ≥ 1.
-    pub order: u32,
-    /// Cutoff f_c of one pass, Hz (−3 dB per pass, −6 dB forward-backward); 0 < f_c < 1/(2h).
-    pub cutoff: f64,
+/// |Q(e^{jωh})|² of one pass of the low-pass `q` at frequency `f` (Hz), sample period `h`
+/// (s): the forward-backward filter's whole gain. For the bilinear-transform design (scipy's
+/// `butter`, prewarped at f_c, as `learning.rs`) |Q|² = 1 / (1 + (tan(πfh) / tan(πf_c h))^{2N}).
+pub fn q_gain_sq(q: &LowPass, f: f64, h: f64) -> f64 {
+    let r = (std::f64::consts::PI * f * h).tan() / (std::f64::consts::PI * q.cutoff_hz * h).tan();
+    1.0 / (1.0 + r.abs().powi(2 * q.order as i32))
 }
 
-impl Butterworth {
-    /// |Q(e^{jωh})|² of one pass at frequency `f` (Hz) with sample period `h` (s): the
-    /// forward-backward filter's whole gain. For the bilinear-transform design (scipy's
-    /// `butter`, prewarped at f_c) |Q|² = 1 / (1 + (tan(πfh) / tan(πf_c h))^{2N}).
-    pub fn gain_sq(&self, f: f64, h: f64) -> f64 {
-        let r =
-            (std::f64::consts::PI * f * h).tan() / (std::f64::consts::PI * self.cutoff * h).tan();
-        1.0 / (1.0 + r.abs().powi(2 * self.order as i32))
+/// Checks `update` for sample period `h`, naming the offending setting.
+pub fn validate(update: &UpdateSettings, h: f64) -> Result<(), ConvergenceError> {
+    check("h", h, h > 0.0, "the sample period must be positive")?;
+    check("forgetting", update.forgetting, true, "must be finite")?;
+    check("gain", update.gain, true, "must be finite")?;
+    if let Some(q) = update.filter {
+        check(
+            "order",
+            q.order as f64,
+            (1..=32).contains(&q.order),
+            "the filter order must be between 1 and 32",
+        )?;
+        check(
+            "cutoff",
+            q.cutoff_hz,
+            q.cutoff_hz > 0.0 && q.cutoff_hz < 0.5 / h,
+            "the cutoff must lie between 0 and the Nyquist frequency 1/(2h)",
+        )?;
     }
-}
-
-/// The between-trial memory update u_{k+1} = Q[α u_k + g shift_δ(Δ_k)].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Update {
-    /// Q; `None` is no filter.
-    pub filter: Option<Butterworth>,
-    /// Lead δ, samples. Default 0.
-    pub lead: usize,
-    /// Forgetting factor α. Default 1.
-    pub forgetting: f64,
-    /// Gain g on the increment. Default 1.
-    pub gain: f64,
-}
-
-impl Default for Update {
-    /// The paper's update: no filter, no lead, α = g = 1.
-    fn default() -> Self {
-        Self {
-            filter: None,
-            lead: 0,
-            forgetting: 1.0,
-            gain: 1.0,
-        }
-    }
-}
-
-impl Update {
-    /// Checks the settings for sample period `h`.
-    pub fn validate(&self, h: f64) -> Result<(), ConvergenceError> {
-        check("h", h, h > 0.0, "the sample period must be positive")?;
-        check("forgetting", self.forgetting, true, "must be finite")?;
-        check("gain", self.gain, true, "must be finite")?;
-        if let Some(q) = self.filter {
-            check(
-                "order",
-                f64::from(q.order),
-                q.order >= 1,
-                "the filter order must be at least 1",
-            )?;
-            check(
-                "cutoff",
-                q.cutoff,
-                q.cutoff > 0.0 && q.cutoff < 0.5 / h,
-                "the cutoff must lie between 0 and the Nyquist frequency 1/(2h)",
-            )?;
-        }
-        Ok(())
-    }
+    Ok(())
 }
 
 /// One leg-space mode under the sampled PID loop: mass m with viscous friction b, force held
@@ -179,12 +141,12 @@ impl ModeLoop {
     }
 
     /// The convergence factor |Q|²·|α − g z^δ L P| at frequency `f` (Hz).
-    pub fn factor(&self, update: &Update, f: f64) -> f64 {
+    pub fn factor(&self, update: &UpdateSettings, f: f64) -> f64 {
         let z_lead =
             Complex::from_polar(1.0, std::f64::consts::TAU * f * self.h * update.lead as f64);
         let inner =
             Complex::new(update.forgetting, 0.0) - z_lead * self.learning_response(f) * update.gain;
-        let q = update.filter.map_or(1.0, |q| q.gain_sq(f, self.h));
+        let q = update.filter.map_or(1.0, |q| q_gain_sq(&q, f, self.h));
         q * inner.norm()
     }
 }
@@ -282,7 +244,7 @@ pub fn frequency_grid(h: f64, f_min: f64, points: usize) -> Vec<f64> {
 }
 
 /// The worst factor over a set of mode loops at one frequency.
-pub fn worst_factor(loops: &[ModeLoop], update: &Update, f: f64) -> f64 {
+pub fn worst_factor(loops: &[ModeLoop], update: &UpdateSettings, f: f64) -> f64 {
     loops
         .iter()
         .map(|l| l.factor(update, f))
@@ -332,8 +294,8 @@ pub fn bands_above_one(grid: &[f64], factor: impl Fn(f64) -> f64) -> Vec<(f64, f
 
 /// |α − g z^δ L P| per frequency of `grid`, worst over `loops`: the factor before the filter,
 /// which does not depend on the cutoff.
-pub fn unfiltered_envelope(loops: &[ModeLoop], update: &Update, grid: &[f64]) -> Vec<f64> {
-    let bare = Update {
+pub fn unfiltered_envelope(loops: &[ModeLoop], update: &UpdateSettings, grid: &[f64]) -> Vec<f64> {
+    let bare = UpdateSettings {
         filter: None,
         ..*update
     };
@@ -345,12 +307,15 @@ pub fn unfiltered_envelope(loops: &[ModeLoop], update: &Update, grid: &[f64]) ->
 /// The largest cutoff (Hz) of an order-`order` filter up to which every cutoff keeps
 /// |Q|²·`envelope` ≤ 1 on `grid` (`envelope` from [`unfiltered_envelope`]); `None` if even
 /// the lowest frequency of the grid fails as a cutoff, Nyquist if no filter is needed.
-pub fn max_safe_cutoff(envelope: &[f64], grid: &[f64], order: u32, h: f64) -> Option<f64> {
+pub fn max_safe_cutoff(envelope: &[f64], grid: &[f64], order: usize, h: f64) -> Option<f64> {
     let safe = |cutoff: f64| {
-        let q = Butterworth { order, cutoff };
+        let q = LowPass {
+            order,
+            cutoff_hz: cutoff,
+        };
         grid.iter()
             .zip(envelope)
-            .all(|(&f, &e)| q.gain_sq(f, h) * e <= 1.0)
+            .all(|(&f, &e)| q_gain_sq(&q, f, h) * e <= 1.0)
     };
     let cutoffs = frequency_grid(h, grid[0], 200);
     let mut last_safe = None;
@@ -395,7 +360,7 @@ pub struct Problem {
     /// Sample period h, s. Default 0.001.
     pub h: f64,
     /// The between-trial update.
-    pub update: Update,
+    pub update: UpdateSettings,
     /// Spacing of the poses sampled along the path, s. Default 0.005.
     pub stride: f64,
     /// How long a pose must last to count for the sustained-mass estimate, s. Default 1.0
@@ -403,7 +368,7 @@ pub struct Problem {
     /// loop and filter transients; briefer peaks are averaged with lighter poses).
     pub dwell: f64,
     /// Filter order for the largest-safe-cutoff search when `update` has no filter. Default 4.
-    pub search_order: u32,
+    pub search_order: usize,
 }
 
 /// Frequencies evaluated, and their count.
@@ -508,11 +473,11 @@ fn peak_of(curves: &[&[f64]], frequencies: &[f64]) -> Peak {
 
 /// Runs the analysis.
 pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
-    p.update.validate(p.h)?;
+    validate(&p.update, p.h)?;
     check("dwell", p.dwell, p.dwell >= 0.0, "must not be negative")?;
     check(
         "search_order",
-        f64::from(p.search_order),
+        p.search_order as f64,
         p.search_order >= 1,
         "the filter order must be at least 1",
     )?;
@@ -521,9 +486,9 @@ pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
     let frequencies = frequency_grid(p.h, F_MIN, FREQUENCIES);
     let q_gain_sq = frequencies
         .iter()
-        .map(|&f| p.update.filter.map_or(1.0, |q| q.gain_sq(f, p.h)))
+        .map(|&f| p.update.filter.map_or(1.0, |q| q_gain_sq(&q, f, p.h)))
         .collect();
-    let bare = Update {
+    let bare = UpdateSettings {
         filter: None,
         ..p.update
     };
@@ -535,7 +500,7 @@ pub fn analyse(p: &Problem) -> Result<Analysis, ConvergenceError> {
         let sustained = sustained_mass(&masses, p.stride, p.dwell);
         let full = loops_for(p, s.min, s.max);
         let held = loops_for(p, s.min, sustained);
-        let curve = |loops: &[ModeLoop], u: &Update| -> Vec<f64> {
+        let curve = |loops: &[ModeLoop], u: &UpdateSettings| -> Vec<f64> {
             frequencies
                 .iter()
                 .map(|&f| worst_factor(loops, u, f))
@@ -600,7 +565,7 @@ mod tests {
     }
 
     /// The peak of a factor curve on a fine linear grid: (frequency, value).
-    fn peak(l: &ModeLoop, u: &Update, lo: f64, hi: f64) -> (f64, f64) {
+    fn peak(l: &ModeLoop, u: &UpdateSettings, lo: f64, hi: f64) -> (f64, f64) {
         (0..=20000)
             .map(|i| lo + (hi - lo) * i as f64 / 20000.0)
             .map(|f| (f, l.factor(u, f)))
@@ -645,7 +610,7 @@ mod tests {
 
     #[test]
     fn prototype_single_mode_figures() {
-        let paper = Update::default();
+        let paper = UpdateSettings::default();
         for (mass, onset, f_peak, value) in [(27.0, 6.1, 8.5, 1.35), (57.0, 3.7, 5.2, 1.84)] {
             let l = mode(mass);
             let bands = bands_above_one(&frequency_grid(1e-3, 0.1, 2000), |f| l.factor(&paper, f));

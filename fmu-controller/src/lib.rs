@@ -255,9 +255,19 @@ impl Model for HlcsController {
         restored.values.restore(&mut r)?;
         if r.u8()? == 1 {
             let start_time = r.f64()?;
+            if !start_time.is_finite() {
+                return Err(ModelError::error(format!(
+                    "saved controller state is invalid: start time {start_time}"
+                )));
+            }
             let mut sim = restored.build(start_time)?;
             let mut integral = [0.0; 6];
             r.f64s(&mut integral)?;
+            if !integral.iter().all(|x| x.is_finite()) {
+                return Err(ModelError::error(format!(
+                    "saved controller state is invalid: error integral {integral:?}"
+                )));
+            }
             sim.law.integral = Vector6::from_row_slice(&integral);
             restored.sim = Some(sim);
         }

@@ -18,6 +18,8 @@ use rand_distr::{Distribution, StandardNormal};
 
 /// Generated from `modelDescription/CkcmPlant.xml` by the build script.
 pub mod md {
+    // The table spells the XML's bounds as written there (±1.5707963267948966 rad).
+    #![allow(clippy::approx_constant)]
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 use md::vr;
@@ -89,14 +91,11 @@ impl Noise {
 }
 
 impl Sim {
-    /// Checks `state` against the workspace (strokes, base plane, finiteness); the message
-    /// names the leg or joint, the value and the time `t`.
-    fn check(&self, state: &State, t: f64) -> Result<(), String> {
+    /// Checks `state` against the workspace (strokes, base plane, finiteness).
+    fn check(&self, state: &State) -> Result<(), ckcm::WorkspaceError> {
         let legs = self.mechanism.inverse_kinematics(&state.pose);
         let twist_finite = state.twist.iter().all(|x| x.is_finite());
-        self.workspace
-            .check(&state.pose, twist_finite, &legs)
-            .map_err(|e| format!("at t = {t} s {e}"))
+        self.workspace.check(&state.pose, twist_finite, &legs)
     }
 }
 
@@ -243,9 +242,10 @@ impl Model for CkcmPlant {
         let sim = self.build()?;
         // A geometry whose home or initial pose lies outside the workspace (or whose leg
         // lengths overflow) cannot be simulated: an error here, not outputs of inf.
-        sim.check(&sim.state, start_time).map_err(|e| {
+        sim.check(&sim.state).map_err(|e| {
             ModelError::error(format!(
-                "the initial pose (home_height + initial_pose) is outside the workspace: {e}"
+                "the initial pose (home_height + initial_pose) is outside the workspace: \
+                 at t = {start_time} s {e}"
             ))
         })?;
         self.sim = Some(sim);
@@ -267,7 +267,7 @@ impl Model for CkcmPlant {
         let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
         let end = t + h;
         let checked = match advanced {
-            Ok(()) => sim.check(&next, end),
+            Ok(()) => sim.check(&next).map_err(|e| format!("at t = {end} s {e}")),
             Err(e) => Err(format!("at t = {end} s {e}")),
         };
         checked.map_err(|e| {
@@ -322,6 +322,18 @@ impl Model for CkcmPlant {
                 dp.h_next = buf[13];
             }
             sim.point = r.u64()?;
+            // A state this plant could have reached: finite, a unit quaternion, inside the
+            // workspace, a usable step-size proposal.
+            let norm = sim.state.pose.q_world.coords.norm();
+            if !((norm - 1.0).abs() < 1e-9 && buf[13].is_finite() && buf[13] >= 0.0) {
+                return Err(ModelError::error(format!(
+                    "saved plant state is invalid: orientation quaternion norm {norm}, \
+                     step-size proposal {} s",
+                    buf[13]
+                )));
+            }
+            sim.check(&sim.state)
+                .map_err(|e| ModelError::error(format!("saved plant state is invalid: {e}")))?;
             restored.sim = Some(sim);
         }
         r.finish()?;

@@ -58,7 +58,7 @@ pub enum MasterError {
 
 /// Log categories, in the naming Reference-FMUs and our FMUs use, that report failed or
 /// questionable calls and nothing else.
-const STATUS_CATEGORIES: [&str; 4] = [
+pub const STATUS_CATEGORIES: [&str; 4] = [
     "logStatusWarning",
     "logStatusDiscard",
     "logStatusError",

@@ -64,13 +64,16 @@ fn plots(line: &[(f64, f64)], x: &[f64], y: &[f64]) -> bool {
         && affine_residual(y, &py) <= 1.0
 }
 
-/// Columns of a CSV by header name.
+/// Columns of a CSV by header name, `time` included.
 fn columns(path: &Path) -> BTreeMap<String, Vec<f64>> {
     let rec = common::read_csv(path);
-    rec.names
+    let mut out: BTreeMap<String, Vec<f64>> = rec
+        .names
         .iter()
         .map(|n| (n.clone(), common::column(&rec, n).to_vec()))
-        .collect()
+        .collect();
+    out.insert("time".to_string(), rec.time.clone());
+    out
 }
 
 /// Recorded trials of one campaign directory, in trial order.

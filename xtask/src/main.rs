@@ -1,16 +1,20 @@
 //! Project automation, so a fresh machine needs only `cargo`:
 //!
-//! - `cargo xtask fmu`: build the two FMU binaries in release mode and package
-//!   `target/fmu/CkcmPlant.fmu` and `target/fmu/HlcsController.fmu`.
+//! - `cargo xtask fmu`: build the two FMU binaries in release mode, for Linux and (cross,
+//!   with mingw-w64) for win64, and package `target/fmu/CkcmPlant.fmu` and
+//!   `target/fmu/HlcsController.fmu`. Installs the Rust target and mingw-w64 if missing.
 //! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
-//! - `cargo xtask test`: check formatting and clippy, package the FMUs, run every Rust
-//!   test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the fmpy tests.
+//! - `cargo xtask test`: check formatting and clippy, package the FMUs, cross-build
+//!   `orchestrator.exe` and prepare Wine (installed if missing) for the win64 tests, run
+//!   every Rust test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the
+//!   fmpy tests.
 #![deny(unsafe_code)]
 
 mod docs;
 mod package;
 mod python;
+mod win64;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -66,11 +70,13 @@ fn main() -> Result<()> {
                     "warnings",
                 ]))?;
             package::build_fmus(&root)?;
+            let wine_env = win64::prepare_wine(&root)?;
             run(Command::new(cargo())
                 .current_dir(&root)
                 .args(["test", "--workspace", "--release"])
                 .env("CARGO_TARGET_DIR", target_dir(&root))
-                .env("CKCM_FMU_DIR", target_dir(&root).join("fmu")))?;
+                .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
+                .envs(wine_env))?;
             python::run_pytest(&root)?;
         }
         _ => bail!(

@@ -79,9 +79,9 @@ impl VarSpec {
         if self.min.is_none() && self.max.is_none() {
             return Ok(());
         }
-        let below = self.min.is_some_and(|lo| value.is_nan() || value < lo);
-        let above = self.max.is_some_and(|hi| value.is_nan() || value > hi);
-        if below || above {
+        let below = self.min.is_some_and(|lo| value < lo);
+        let above = self.max.is_some_and(|hi| value > hi);
+        if value.is_nan() || below || above {
             let bound =
                 |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
             return Err(format!(

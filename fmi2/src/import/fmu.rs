@@ -93,7 +93,9 @@ impl Fmu {
         if !binary.is_file() {
             return Err(ImportError::MissingBinary {
                 path,
+                platform: PLATFORM,
                 expected: relative,
+                available: platforms_in(dir.path()),
             });
         }
         let resources = dir.path().join("resources");
@@ -151,6 +153,12 @@ impl Fmu {
         &self.path
     }
 
+    /// The platform folders under `binaries/` in the archive (e.g. `linux64`, `win64`),
+    /// sorted.
+    pub fn platforms(&self) -> Vec<String> {
+        platforms_in(self.loaded.dir.path())
+    }
+
     /// The directory the archive was unpacked into (removed on drop).
     pub fn unpacked_dir(&self) -> &Path {
         self.loaded.dir.path()
@@ -190,6 +198,20 @@ impl Fmu {
     }
 }
 
+/// The folders under `<unpacked>/binaries/`, sorted; none if it is missing.
+fn platforms_in(unpacked: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(unpacked.join("binaries"))
+        .map(|dir| {
+            dir.filter_map(Result::ok)
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
 /// Fails unless the binary's version string function returns `expected`.
 fn check_string(
     binary: &Path,
@@ -221,23 +243,68 @@ fn check_string(
 }
 
 /// `file:///abs/path/` with every byte outside RFC 3986's unreserved set (and `/`)
-/// percent-encoded. Hand-written: the workspace has no URL crate, and this is the
-/// whole of what fmuResourceLocation needs.
+/// percent-encoded; on Windows `file:///C:/abs/path/`. Hand-written: the workspace has no
+/// URL crate, and this is the whole of what fmuResourceLocation needs.
 pub fn file_uri(dir: &Path) -> String {
     let absolute = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
     #[cfg(unix)]
-    let bytes = std::os::unix::ffi::OsStrExt::as_bytes(absolute.as_os_str()).to_vec();
-    // Windows: `C:\x` becomes `/C:/x`, so the URI reads `file:///C:/x`.
+    let uri = unix_file_uri(std::os::unix::ffi::OsStrExt::as_bytes(absolute.as_os_str()));
     #[cfg(not(unix))]
-    let bytes = format!("/{}", absolute.to_string_lossy().replace('\\', "/")).into_bytes();
+    let uri = windows_file_uri(&absolute.to_string_lossy());
+    uri
+}
+
+/// The URI of an absolute Unix path (its bytes).
+#[cfg_attr(not(unix), allow(dead_code))]
+fn unix_file_uri(path: &[u8]) -> String {
     let mut uri = String::from("file://");
-    for b in bytes {
+    percent_encode_into(&mut uri, path);
+    finish_dir_uri(uri)
+}
+
+/// The URI of an absolute Windows path: `C:\x` becomes `file:///C:/x` (the form Windows
+/// FMI tools expect, RFC 8089 with the drive colon kept), a UNC path `\\server\share\x`
+/// becomes `file://server/share/x`. The verbatim prefixes `\\?\` and `\\?\UNC\` (from
+/// `std::fs::canonicalize`) are dropped.
+#[cfg_attr(unix, allow(dead_code))]
+fn windows_file_uri(path: &str) -> String {
+    let path = path.replace('\\', "/");
+    let path = if let Some(unc) = path.strip_prefix("//?/UNC/") {
+        format!("//{unc}")
+    } else if let Some(local) = path.strip_prefix("//?/") {
+        local.to_owned()
+    } else {
+        path
+    };
+    let mut uri = String::from("file://");
+    let bytes = path.as_bytes();
+    if let Some(unc) = path.strip_prefix("//") {
+        // The server name is the URI's authority.
+        percent_encode_into(&mut uri, unc.as_bytes());
+    } else if bytes.len() >= 2 && bytes[0].is_ascii_alphabetic() && bytes[1] == b':' {
+        uri.push('/');
+        uri.push(char::from(bytes[0]));
+        uri.push(':');
+        percent_encode_into(&mut uri, &bytes[2..]);
+    } else {
+        percent_encode_into(&mut uri, bytes);
+    }
+    finish_dir_uri(uri)
+}
+
+/// Appends `bytes`, keeping RFC 3986's unreserved characters and `/`, encoding the rest.
+fn percent_encode_into(uri: &mut String, bytes: &[u8]) {
+    for &b in bytes {
         if b.is_ascii_alphanumeric() || matches!(b, b'-' | b'.' | b'_' | b'~' | b'/') {
             uri.push(char::from(b));
         } else {
             uri.push_str(&format!("%{b:02X}"));
         }
     }
+}
+
+/// A directory URI ends with a slash.
+fn finish_dir_uri(mut uri: String) -> String {
     if !uri.ends_with('/') {
         uri.push('/');
     }
@@ -246,9 +313,31 @@ pub fn file_uri(dir: &Path) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::file_uri;
+    use super::{file_uri, windows_file_uri};
     use std::path::Path;
 
+    #[test]
+    fn windows_paths_become_drive_and_unc_uris() {
+        assert_eq!(
+            windows_file_uri(r"C:\Users\Jo Doe\AppData\Local\Temp\fmi2-import-x\resources"),
+            "file:///C:/Users/Jo%20Doe/AppData/Local/Temp/fmi2-import-x/resources/"
+        );
+        assert_eq!(windows_file_uri(r"Z:\"), "file:///Z:/");
+        assert_eq!(
+            windows_file_uri(r"\\?\D:\fmu\résumé\"),
+            "file:///D:/fmu/r%C3%A9sum%C3%A9/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\server\share\a#b"),
+            "file://server/share/a%23b/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\?\UNC\server\share\x"),
+            "file://server/share/x/"
+        );
+    }
+
+    #[cfg(unix)]
     #[test]
     fn file_uri_percent_encodes() {
         assert_eq!(

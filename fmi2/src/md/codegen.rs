@@ -66,6 +66,9 @@ pub fn codegen_rust(md: &ModelDescription) -> String {
         out,
         "/// Every scalar variable, in model-description order."
     );
+    // Bounds and starts are data copied from the XML: a value that happens to be close to
+    // a constant such as π/2 must not trip clippy in the including crate.
+    let _ = writeln!(out, "#[allow(clippy::approx_constant)]");
     let _ = writeln!(out, "pub const VARIABLES: &[::fmi2::export::VarSpec] = &[");
     for v in &md.model_variables {
         let (min, max) = md.range_of(v);
@@ -87,6 +90,7 @@ pub fn codegen_rust(md: &ModelDescription) -> String {
         out,
         "/// Start values of the Real, Integer, Boolean (0/1) and Enumeration variables that have one."
     );
+    let _ = writeln!(out, "#[allow(clippy::approx_constant)]");
     let _ = writeln!(
         out,
         "pub const START: &[(u32, ::fmi2::export::VarType, f64)] = &["

@@ -847,15 +847,15 @@ impl Fmu {
     }
 }
 
-/// Offset of the FMI-state code in a serialized Oscillator state.
 /// Replaces the trailing CRC-32 of an edited serialized state, so the edit reaches the
 /// checks behind the checksum.
-pub fn reseal(bytes: &mut Vec<u8>) {
+pub fn reseal(bytes: &mut [u8]) {
     let body = bytes.len() - 4;
     let crc = crc32fast::hash(&bytes[..body]);
     bytes[body..].copy_from_slice(&crc.to_le_bytes());
 }
 
+/// Offset of the FMI-state code in a serialized Oscillator state.
 pub fn state_code_offset() -> usize {
     20 + Oscillator::MODEL_IDENTIFIER.len() + GUID.len()
 }

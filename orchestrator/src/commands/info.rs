@@ -162,18 +162,9 @@ fn describe(fmu: &Fmu) -> String {
 
 /// The `binaries/` subdirectories present in the archive.
 fn platforms(fmu: &Fmu) -> String {
-    let mut names: Vec<String> = std::fs::read_dir(fmu.unpacked_dir().join("binaries"))
-        .map(|dir| {
-            dir.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    names.sort();
     format!(
         "{} (running here as {})",
-        names.join(", "),
+        fmu.platforms().join(", "),
         fmi2::import::PLATFORM
     )
 }
@@ -356,7 +347,7 @@ mod tests {
         let text = table("", &["name", "description"], &rows);
         assert_eq!(
             text,
-            "name         description\nx\\u{1b}[2J  a\\u{a}b\\\\c\n"
+            "name        description\nx\\u{1b}[2J  a\\u{a}b\\\\c\n"
         );
         assert!(!text.contains('\u{1b}'));
         let kv = key_values("", &[("Model", "m\rX".into())]);

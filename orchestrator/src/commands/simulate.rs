@@ -15,6 +15,7 @@ use fmi2::Status;
 use fmi2::export::{Causality, Variability};
 use fmi2::import::{Fmu, ImportError, Instance};
 use fmi2::md::{Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use orchestrator::master::STATUS_CATEGORIES;
 use orchestrator::output::{CsvWithText, Exporter, Recording, write_recording};
 use orchestrator::scenario::{self, check_value};
 
@@ -618,7 +619,7 @@ impl Recorder {
     }
 
     /// The String columns recorded so far, as (column, values).
-    fn take_text(&mut self) -> Vec<(usize, Vec<String>)> {
+    fn take_text(&mut self) -> TextColumns {
         self.strings
             .iter_mut()
             .map(|(_, column, values)| (*column, std::mem::take(values)))
@@ -665,6 +666,9 @@ fn report_log(inst: &Instance, status: Status, verbose: bool) {
     }
 }
 
+/// String columns of a recording: (column, one value per row).
+type TextColumns = Vec<(usize, Vec<String>)>;
+
 /// Instantiates, initializes and steps the FMU over the grid, returning the recording, its
 /// String columns, and why it ended early (fmi2Discard, with or without a request to
 /// terminate), if it did.
@@ -672,7 +676,7 @@ fn simulate(
     fmu: &Fmu,
     plan: &mut Plan,
     verbose: bool,
-) -> Result<(Recording, Vec<(usize, Vec<String>)>, Option<String>)> {
+) -> Result<(Recording, TextColumns, Option<String>)> {
     let md = fmu.model_description();
     let mut inst = fmu
         .instantiate(&md.model_name, verbose)
@@ -680,6 +684,18 @@ fn simulate(
     if verbose {
         let status = inst.set_debug_logging(true, &[])?;
         report_log(&inst, status, verbose);
+    } else {
+        // Still hear why a call fails or is discarded: the status categories the FMU
+        // declares log only when something goes wrong.
+        let categories: Vec<&str> = md
+            .log_categories
+            .iter()
+            .map(|c| c.name.as_str())
+            .filter(|n| STATUS_CATEGORIES.contains(n))
+            .collect();
+        if !categories.is_empty() {
+            inst.set_debug_logging(true, &categories)?;
+        }
     }
     for a in &plan.starts {
         let status = set_value(&mut inst, a.vr, &a.value)
@@ -793,6 +809,17 @@ mod tests {
     }
 
     #[test]
+    fn auto_interval_follows_fmpy() {
+        // fmpy 0.3.32 util.auto_interval: h = 10^(round(log10 span) − 3), then scaled so the
+        // span holds 500 to 1000 steps. The same five values come out of fmpy itself.
+        assert_eq!(auto_interval(1.0), 0.002); // 1000 steps of 1 ms → ×2
+        assert_eq!(auto_interval(2.0), 0.004); // 2000 → ×4
+        assert_eq!(auto_interval(10.0), 0.02); // 1000 of 10 ms → ×2
+        assert_eq!(auto_interval(0.3), 0.0005); // h = 1e-4 (log10 0.3 → −1), 3000 → ×5
+        assert_eq!(auto_interval(5.0), 0.005); // h = 0.01 (log10 5 → 1), 500 → ÷2
+    }
+
+    #[test]
     fn grid_rejects_bad_times() {
         for (start, stop, step) in [(0.0, 0.0, 0.1), (1.0, 0.5, 0.1), (0.0, 1.0, 0.0)] {
             assert!(Grid::new(start, stop, step, true).is_err());
@@ -817,6 +844,137 @@ mod tests {
         // A grid time rounded a few ulps below a row's time still reaches that row.
         assert_eq!(table.row_at(1.0 - 1e-15, slack), Some(2));
         assert_eq!(table.row_at(5.0, slack), Some(3));
+    }
+
+    fn foreign_md() -> ModelDescription {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/fixtures/foreign-fmu/modelDescription.xml");
+        ModelDescription::parse(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    /// A model with a String input, which no FMU of the workspace has.
+    fn string_md() -> ModelDescription {
+        let xml = foreign_md_xml().replace(
+            "<!-- 1 -->",
+            r#"<ScalarVariable name="label" valueReference="9" causality="input" variability="discrete"><String start=""/></ScalarVariable>
+    <!-- 1 -->"#,
+        );
+        ModelDescription::parse(&xml).unwrap()
+    }
+
+    fn foreign_md_xml() -> String {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/fixtures/foreign-fmu/modelDescription.xml");
+        std::fs::read_to_string(path).unwrap()
+    }
+
+    #[test]
+    fn string_inputs_are_read_from_the_file() {
+        let md = string_md();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        std::fs::write(&path, "time,label,drive\n0,\"a, b\",1\n1,c,2\n").unwrap();
+        let table = InputTable::read(&path, &md).unwrap();
+        assert_eq!(table.rows[0][0], Value::String("a, b".into()));
+        assert_eq!(table.rows[1][0], Value::String("c".into()));
+        assert_eq!(table.rows[1][1], Value::Real(2.0));
+    }
+
+    #[test]
+    fn input_values_outside_the_declared_range_name_line_and_column() {
+        let md = foreign_md();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        // `drive` has no range, but it must be finite.
+        std::fs::write(&path, "time,drive\n0,1\n1,nan\n").unwrap();
+        let err = InputTable::read(&path, &md).unwrap_err().to_string();
+        assert!(err.contains("in.csv:3: column 2 ('drive')"), "{err}");
+        assert!(err.contains("not a finite number"), "{err}");
+    }
+
+    /// Fuzzing the input-CSV reader: the files of `tests/corpus/input_csv/` (the kept
+    /// corpus), mutated at random, are read into a consistent table or refused with the
+    /// file and a line, never a panic. 1000 cases; a failure is stored by proptest under
+    /// `proptest-regressions/` and replayed first.
+    mod fuzz_input_csv {
+        use super::*;
+        use proptest::prelude::*;
+
+        const TOKENS: &[&str] = &[
+            "nan", "inf", "-inf", "1e309", "-0", ",", "\"", "\n", "\r\n", "time", "drive", "x",
+            "label", " ", "\u{0}", "0.5", "-1", "1e-320",
+        ];
+
+        fn corpus() -> Vec<Vec<u8>> {
+            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/input_csv");
+            let mut files: Vec<_> = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .collect();
+            files.sort();
+            files.iter().map(|p| std::fs::read(p).unwrap()).collect()
+        }
+
+        #[test]
+        fn the_corpus_is_valid() {
+            let md = string_md();
+            let dir = tempfile::tempdir().unwrap();
+            for (i, bytes) in corpus().iter().enumerate() {
+                let path = dir.path().join(format!("{i}.csv"));
+                std::fs::write(&path, bytes).unwrap();
+                InputTable::read(&path, &md).unwrap();
+            }
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+
+            #[test]
+            fn mutated_inputs_are_consistent_or_refused_with_the_line(
+                pick in any::<usize>(),
+                edits in prop::collection::vec(
+                    (any::<usize>(), 0..TOKENS.len(), any::<bool>()), 1..6),
+            ) {
+                let md = string_md();
+                let corpus = corpus();
+                let mut bytes = corpus[pick % corpus.len()].clone();
+                for &(at, token, delete) in &edits {
+                    let at = at % (bytes.len() + 1);
+                    if delete && at < bytes.len() {
+                        bytes.remove(at);
+                    } else {
+                        bytes.splice(at..at, TOKENS[token].bytes());
+                    }
+                }
+                let dir = tempfile::tempdir().unwrap();
+                let path = dir.path().join("in.csv");
+                std::fs::write(&path, &bytes).unwrap();
+                match InputTable::read(&path, &md) {
+                    Ok(t) => {
+                        prop_assert!(!t.times.is_empty());
+                        prop_assert_eq!(t.times.len(), t.rows.len());
+                        prop_assert!(t.times.iter().all(|t| t.is_finite()));
+                        prop_assert!(t.times.windows(2).all(|w| w[0] <= w[1]));
+                        for row in &t.rows {
+                            prop_assert_eq!(row.len(), t.columns.len());
+                            for v in row {
+                                if let Value::Real(x) = v {
+                                    prop_assert!(x.is_finite());
+                                }
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        let text = format!("{e:#}");
+                        let prefix = format!("{}:", path.display());
+                        prop_assert!(
+                            text.starts_with(&prefix) || text.starts_with("cannot read"),
+                            "{}", text
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -217,7 +217,16 @@ fn case_text(spec: &SweepSpec, base: &BaseFmus, i: usize) -> Result<String, Stri
                 t.insert("base".into(), toml::Value::Integer(seed));
             }
             _ => {
-                params.insert(s.parameter.clone(), toml::Value::Integer(seed));
+                let value = match s.per_trial {
+                    Some(step) => {
+                        let mut t = toml::Table::new();
+                        t.insert("base".into(), toml::Value::Integer(seed));
+                        t.insert("per_trial".into(), toml::Value::Integer(step));
+                        toml::Value::Table(t)
+                    }
+                    None => toml::Value::Integer(seed),
+                };
+                params.insert(s.parameter.clone(), value);
             }
         }
     }

@@ -84,6 +84,8 @@ struct RawSeeds {
     base: i64,
     #[serde(default = "default_stride")]
     stride: i64,
+    #[serde(default)]
+    per_trial: Option<i64>,
 }
 
 fn default_stride() -> i64 {
@@ -125,14 +127,18 @@ pub struct Axis {
     pub line: Option<usize>,
 }
 
-/// Per-case seeds: `parameter` gets `base + case·stride` (or that replaces the `base` of a
-/// per-trial value the base scenario gives it).
+/// Per-case seeds: `parameter` gets `base + case·stride`, as a per-trial value
+/// `{ base, per_trial }` when `per_trial` is set (or replacing the `base` of a per-trial value
+/// the base scenario gives it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Seeds {
     pub fmu: String,
     pub parameter: String,
     pub base: i64,
     pub stride: i64,
+    /// Step of a per-trial value `{ base, per_trial }` set for the case (fresh noise in
+    /// every trial); `None` sets one value for the whole case.
+    pub per_trial: Option<i64>,
 }
 
 /// How axes combine into cases.
@@ -251,7 +257,36 @@ impl SweepSpec {
                 (0..lens[0]).map(|i| vec![i; lens.len()]).collect()
             }
             Combine::Product => {
-                let total = lens
+                // Grid axes combine with each other; random axes are one Monte Carlo
+                // sample together (draw j of every random axis is one plant variant), and
+                // that sample combines with the grids.
+                let mut factors: Vec<Vec<usize>> = Vec::new();
+                let mut random: Option<usize> = None;
+                for (a, axis) in axes.iter().enumerate() {
+                    if axis.grid {
+                        factors.push(vec![a]);
+                    } else if let Some(f) = random {
+                        if lens[a] != lens[factors[f][0]] {
+                            return Err(err(
+                                0..0,
+                                format!(
+                                    "random axes are drawn together and need one `samples`; \
+                                     {:?} has {} and {:?} has {}",
+                                    axes[factors[f][0]].name,
+                                    lens[factors[f][0]],
+                                    axis.name,
+                                    lens[a]
+                                ),
+                            ));
+                        }
+                        factors[f].push(a);
+                    } else {
+                        random = Some(factors.len());
+                        factors.push(vec![a]);
+                    }
+                }
+                let sizes: Vec<usize> = factors.iter().map(|f| lens[f[0]]).collect();
+                let total = sizes
                     .iter()
                     .try_fold(1usize, |acc, &n| acc.checked_mul(n))
                     .filter(|&n| n <= MAX_CASES)
@@ -264,8 +299,10 @@ impl SweepSpec {
                 (0..total)
                     .map(|mut c| {
                         let mut idx = vec![0; lens.len()];
-                        for (slot, &n) in idx.iter_mut().zip(&lens).rev() {
-                            *slot = c % n;
+                        for (f, &n) in factors.iter().zip(&sizes).rev() {
+                            for &a in f {
+                                idx[a] = c % n;
+                            }
                             c /= n;
                         }
                         idx
@@ -287,6 +324,7 @@ impl SweepSpec {
                     parameter,
                     base: r.base,
                     stride: r.stride,
+                    per_trial: r.per_trial,
                 })
             }
         };
@@ -609,6 +647,25 @@ mod tests {
         assert_eq!(s.cases[1], vec![0, 1]);
         assert_eq!(s.cases[5], vec![1, 2]);
         assert_eq!(s.axes[1].labels, vec!["5", "7.5", "10"]);
+    }
+
+    #[test]
+    fn random_axes_form_one_sample_that_combines_with_the_grids() {
+        let s = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0, 2.0]\n\
+             [[axis]]\nparameters = [\"plant.gravity\"]\nuniform = [9.0, 10.0]\nsamples = 3\n\
+             [[axis]]\nparameters = [\"plant.cylinder_mass\"]\nnormal = [10.0, 1.0]\nsamples = 3\n",
+        )
+        .unwrap();
+        assert_eq!(s.cases.len(), 6);
+        assert!(s.cases.iter().all(|c| c[1] == c[2]), "{:?}", s.cases);
+        assert_eq!(s.cases[3], vec![1, 0, 0]);
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.gravity\"]\nuniform = [9.0, 10.0]\nsamples = 3\n\
+             [[axis]]\nparameters = [\"plant.cylinder_mass\"]\nnormal = [10.0, 1.0]\nsamples = 4\n",
+        )
+        .unwrap_err();
+        assert!(e.message.contains("one `samples`"), "{e}");
     }
 
     #[test]
