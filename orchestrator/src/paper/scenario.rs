@@ -99,8 +99,10 @@ variables = {variables}
 interval = 1
 trials = [{rec}]
 
+# The true error: desired minus noise-free length (equal to controller.error without noise).
 [metrics]
-error = "controller.error"
+reference = "controller.length_ref"
+length = "plant.length_true"
 rho = {rho:?}
 pose = "plant.pose"
 trajectory = {{ kind = "{traj}", duration = {duration:?}, home_height = 0.5 }}
