@@ -346,17 +346,18 @@ fn report(spec: &SweepSpec, results: &[CaseResult], figures: &[(String, String)]
             }
         };
         let shown: Vec<&str> = a.labels.iter().take(6).map(String::as_str).collect();
-        let more = if a.labels.len() > 6 {
-            format!(" … ({} values)", a.labels.len())
+        let values = if !a.source.is_empty() {
+            a.source.clone()
+        } else if a.labels.len() > 6 {
+            format!("{} … ({} values)", shown.join(", "), a.labels.len())
         } else {
-            String::new()
+            shown.join(", ")
         };
         let _ = writeln!(
             s,
-            "| {} | {target}{} | {}{more} |",
+            "| {} | {target}{} | {values} |",
             a.name,
             if a.scale { " (× base value)" } else { "" },
-            shown.join(", ")
         );
     }
     let _ = writeln!(

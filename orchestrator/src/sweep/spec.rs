@@ -125,6 +125,8 @@ pub struct Axis {
     pub grid: bool,
     /// Line of the axis in the sweep file.
     pub line: Option<usize>,
+    /// How the values were made, for the report (e.g. "lhs [0.7, 1.3], 16 draws").
+    pub source: String,
 }
 
 /// Per-case seeds: `parameter` gets `base + case·stride`, as a per-trial value
@@ -529,6 +531,25 @@ fn build_axis(
     } else {
         None
     };
+    let source = if let Some((lo, hi, n)) = a.linspace {
+        format!("linspace [{lo}, {hi}], {n} points")
+    } else if let Some((lo, hi, n)) = a.logspace {
+        format!("logspace [1e{lo}, 1e{hi}], {n} points")
+    } else if let Some((lo, hi)) = a.uniform {
+        format!("uniform [{lo}, {hi}], {} draws", a.samples.unwrap_or(0))
+    } else if let Some((mean, sd)) = a.normal {
+        format!(
+            "normal (mean {mean}, sd {sd}), {} draws",
+            a.samples.unwrap_or(0)
+        )
+    } else if let Some((lo, hi)) = a.lhs {
+        format!(
+            "Latin hypercube [{lo}, {hi}], {} draws",
+            a.samples.unwrap_or(0)
+        )
+    } else {
+        String::new()
+    };
     let (values, numeric) = match numbers {
         Some(xs) => (xs.into_iter().map(toml::Value::Float).collect(), true),
         None => {
@@ -586,6 +607,7 @@ fn build_axis(
         numeric,
         grid: !random,
         line: None,
+        source,
     })
 }
 
