@@ -299,3 +299,59 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
         merged.display()
     );
 }
+
+#[test]
+fn memory_update_axes_and_case_seeds_reach_each_case_scenario() {
+    let tmp = tempfile::tempdir().unwrap();
+    setup(tmp.path(), 2);
+    let sweep = tmp.path().join("memory.toml");
+    fs::write(
+        &sweep,
+        "base = \"base.toml\"\ntrials = 2\n\
+         [[axis]]\nname = \"scheme\"\nmemory = \"controller.memory\"\nsetting = \"update\"\n\
+         values = [{}, { filter = \"butterworth\", order = 2, cutoff = 8.0 }]\nlabels = [\"paper\", \"filtered\"]\n\
+         [[axis]]\nmemory = \"controller.memory\"\nsetting = \"lead\"\nvalues = [0, 5]\n\
+         [seeds]\nparameter = \"plant.noise_seed\"\nbase = 7\nstride = 100\nper_trial = 1\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let case = |i: usize| -> toml::Table {
+        let text =
+            fs::read_to_string(out.join(format!("cases/case_{i:04}/scenario.toml"))).unwrap();
+        toml::from_str(&text).unwrap()
+    };
+    // Case 1: the paper's update table with only the lead set; case 3: the filter and lead 5.
+    let update = |t: &toml::Table| t["memory"].as_array().unwrap()[0].get("update").cloned();
+    let u1 = update(&case(1)).expect("the lead axis adds an update table");
+    assert_eq!(u1.get("lead").and_then(toml::Value::as_integer), Some(5));
+    assert!(u1.get("filter").is_none(), "{u1:?}");
+    let u3 = update(&case(3)).unwrap();
+    assert_eq!(
+        u3.get("filter").and_then(toml::Value::as_str),
+        Some("butterworth")
+    );
+    assert_eq!(u3.get("cutoff").and_then(toml::Value::as_float), Some(8.0));
+    assert_eq!(u3.get("lead").and_then(toml::Value::as_integer), Some(5));
+    // The seed is per case and per trial: { base = 7 + 100·case, per_trial = 1 }.
+    let seed = &case(3)["fmu"].as_array().unwrap()[1]["parameters"]["noise_seed"];
+    assert_eq!(
+        seed.get("base").and_then(toml::Value::as_integer),
+        Some(307)
+    );
+    assert_eq!(
+        seed.get("per_trial").and_then(toml::Value::as_integer),
+        Some(1)
+    );
+    let csv = fs::read_to_string(out.join("sweep.csv")).unwrap();
+    assert!(
+        csv.lines().nth(4).unwrap().starts_with("3,filtered,5,"),
+        "{csv}"
+    );
+}
