@@ -244,8 +244,8 @@ impl ZeroPhase {
         // Column 0 of O: the zero-input response from state e₀; column k is it delayed by k.
         let mut obs = vec![0.0; n * order];
         z[0] = 1.0;
-        for i in 0..n {
-            obs[i] = lfilter_step(&tf, &mut z, 0.0);
+        for o in obs.iter_mut().take(n) {
+            *o = lfilter_step(&tf, &mut z, 0.0);
         }
         for k in 1..order {
             for i in k..n {
@@ -540,13 +540,8 @@ mod tests {
         let sine = |i: usize| (2.0 * std::f64::consts::PI * i as f64 / 1000.0).sin();
         let mut x: Vec<f64> = (0..2000).map(sine).collect();
         q.apply(&mut x);
-        for i in 200..1800 {
-            assert!(
-                (x[i] - sine(i)).abs() < 2e-3,
-                "sample {i}: {} vs {}",
-                x[i],
-                sine(i)
-            );
+        for (i, v) in x.iter().enumerate().take(1800).skip(200) {
+            assert!((v - sine(i)).abs() < 2e-3, "sample {i}: {v} vs {}", sine(i));
         }
     }
 
