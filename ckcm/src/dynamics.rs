@@ -35,13 +35,20 @@ pub struct JointSpaceDynamics {
     pub gravity: Vector6<f64>,
 }
 
-/// A singular Jacobian or mass matrix.
+/// Why the dynamics could not be evaluated. Non-finite inputs and overflowing forces get
+/// their own variants so a diverged integration is not reported as a singular matrix.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum DynamicsError {
     #[error("the leg Jacobian is singular at this pose")]
     SingularJacobian,
     #[error("the mass matrix is not positive definite at this pose")]
     SingularMass,
+    #[error("the pose or twist is not finite (the integration diverged)")]
+    NonFiniteState,
+    #[error(
+        "the platform acceleration is not finite: the actuator, gravity or friction forces overflow"
+    )]
+    NonFiniteAcceleration,
 }
 
 fn split(v: &Vector6<f64>) -> (Vector3<f64>, Vector3<f64>) {
@@ -220,7 +227,16 @@ impl Mechanism {
         let t = self.terms(pose, twist);
         let total = tau + self.friction(&t.leg_rates);
         let rhs = t.jacobian.transpose() * total - t.bias;
-        solve_spd6(&t.mass, &rhs).ok_or(DynamicsError::SingularMass)
+        match solve_spd6(&t.mass, &rhs) {
+            Some(accel) if accel.iter().all(|x| x.is_finite()) => Ok(accel),
+            // The cause, checked only on the failure path: a non-finite state also makes the
+            // mass matrix NaN, which alone would read as "not positive definite".
+            _ if !(pose.is_finite() && twist.iter().all(|x| x.is_finite())) => {
+                Err(DynamicsError::NonFiniteState)
+            }
+            Some(_) => Err(DynamicsError::NonFiniteAcceleration),
+            None => Err(DynamicsError::SingularMass),
+        }
     }
 
     /// Inverse dynamics τ = J⁻ᵀ (M ν̇ + b): the actuator forces that produce `accel`,

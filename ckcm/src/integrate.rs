@@ -49,9 +49,7 @@ impl State {
 
     /// Whether every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.pose.p_world.iter().all(|x| x.is_finite())
-            && self.pose.q_world.coords.iter().all(|x| x.is_finite())
-            && self.twist.iter().all(|x| x.is_finite())
+        self.pose.is_finite() && self.twist.iter().all(|x| x.is_finite())
     }
 }
 

@@ -17,6 +17,12 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// Whether position and orientation are finite.
+    pub fn is_finite(&self) -> bool {
+        self.p_world.iter().all(|x| x.is_finite())
+            && self.q_world.coords.iter().all(|x| x.is_finite())
+    }
+
     /// Pose from [x, y, z, alpha, beta, gamma] (Z-Y-X Euler angles, rad).
     pub fn from_xyz_euler(v: &[f64; 6]) -> Self {
         Self {

@@ -9,6 +9,7 @@
 
 pub mod closed_loop;
 pub mod control;
+pub mod convergence;
 pub mod dynamics;
 pub mod integrate;
 pub mod kinematics;
@@ -17,6 +18,7 @@ pub mod metrics;
 pub mod params;
 pub mod rotation;
 pub mod trajectory;
+pub mod workspace;
 
 pub use control::{ControlInput, ControlOutput, ControlSettings, Gains, Hlcs};
 pub use dynamics::{DynamicsError, DynamicsTerms, JointSpaceDynamics};
@@ -24,5 +26,6 @@ pub use integrate::{DormandPrince, IntegrationError, Integrator, Rk4, State};
 pub use kinematics::{FkError, FkOptions, LEGS, LegGeometry, Mechanism, Pose};
 pub use params::{Friction, Geometry, Legs, ParamError, Params, Platform};
 pub use trajectory::{Reference, Trajectory, TrajectoryKind};
+pub use workspace::{Workspace, WorkspaceError};
 
 pub use nalgebra;

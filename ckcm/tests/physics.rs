@@ -135,7 +135,11 @@ fn energy_is_conserved_under_constant_forces() {
     }
     // The motion is real: the platform moved and the energy split changed.
     assert!((s.pose.p_world - m.home().p_world).norm() > 5e-3);
-    assert!(worst < 1e-7, "energy drift {worst:e} J");
+    // Measured drift: 2.6e-13 J over 0.5 s (RK4's own truncation, fixed for a given
+    // platform). The bound leaves 4x for a different libm's last-bit differences in sin, cos
+    // and sqrt, and is still 1e-13 of the ~30 J energy: a wrong mass-matrix or bias term
+    // breaks it by orders of magnitude.
+    assert!(worst < 1e-12, "energy drift {worst:e} J");
 }
 
 #[test]

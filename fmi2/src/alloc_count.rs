@@ -85,3 +85,25 @@ pub fn counted<T>(f: impl FnOnce() -> T) -> (usize, T) {
     TRACE.with(|t| t.set(false));
     (allocations() - before, out)
 }
+
+/// Allocations of the calling thread seen by the preloaded malloc counter of
+/// `tests/fixtures/malloc-count` (`LD_PRELOAD`), or `None` when it is not loaded.
+///
+/// [`CountingAllocator`] sees only the allocations of the binary that installs it; a loaded
+/// FMU's shared library has its own global allocator. Both end in the process's `malloc`,
+/// which the preloaded counter interposes, so this counts the library's allocations too.
+/// The first call looks the counter up (and may allocate); later calls only read it.
+#[cfg(all(feature = "import", target_os = "linux"))]
+pub fn preloaded_allocations() -> Option<u64> {
+    type Counter = unsafe extern "C" fn() -> std::ffi::c_ulong;
+    static COUNTER: std::sync::OnceLock<Option<Counter>> = std::sync::OnceLock::new();
+    let counter = COUNTER.get_or_init(|| {
+        let this = libloading::os::unix::Library::this();
+        // SAFETY: malloc_count.c defines `unsigned long ckcm_malloc_count(void)`, which is
+        // this type. The main program's handle never unloads, so the pointer stays valid
+        // after `this` is dropped.
+        unsafe { this.get::<Counter>(b"ckcm_malloc_count\0").ok().map(|f| *f) }
+    });
+    // SAFETY: as above; the function takes no arguments and only reads a thread-local.
+    counter.map(|f| unsafe { f() })
+}

@@ -197,7 +197,8 @@ fn serialize_needs_the_exact_size() {
     let mut snap = ptr::null_mut();
     assert_eq!(fmu.get_state(&mut snap), Status::Ok);
     let bytes = fmu.serialize(snap);
-    let expected_len = state_code_offset() + 60 + 96;
+    // Header, 96 payload bytes, 4 checksum bytes.
+    let expected_len = state_code_offset() + 60 + 96 + 4;
     assert_eq!(bytes.len(), expected_len);
     let mut buf = vec![0u8; bytes.len() + 1];
     // SAFETY: live instance, snapshot, buffer of buf.len() bytes.
@@ -237,11 +238,26 @@ fn good_bytes() -> Vec<u8> {
     bytes
 }
 
+/// `body` (a serialized state without its checksum) with a fresh CRC-32 appended, so a
+/// deliberate edit reaches the field checks behind the checksum.
+fn sealed(mut body: Vec<u8>) -> Vec<u8> {
+    let crc = crc32fast::hash(&body);
+    body.extend_from_slice(&crc.to_le_bytes());
+    body
+}
+
 #[test]
 fn corrupt_buffers_are_rejected_with_a_reason() {
     let good = good_bytes();
     assert_eq!(try_deserialize(&good).0, Status::Ok);
+    // Everything but the 96 payload bytes: header and checksum.
     let header = good.len() - 96;
+    let body = good[..good.len() - 4].to_vec();
+    assert_eq!(
+        sealed(body.clone()),
+        good,
+        "the checksum is a CRC-32 of the rest"
+    );
     let expect = |bytes: &[u8], needle: &str| {
         let (s, msgs) = try_deserialize(bytes);
         assert_eq!(s, Status::Error, "{needle}");
@@ -267,18 +283,39 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
             header - 1
         ),
     );
+    // Cut or extended without a new checksum: the checksum catches it.
+    expect(&good[..good.len() - 1], "checksum mismatch");
+    let mut long = good.clone();
+    long.push(0);
+    expect(&long, "checksum mismatch");
+    // Every single-bit flip after the version is caught by the checksum.
+    for i in 12..good.len() {
+        for bit in 0..8 {
+            let mut flipped = good.clone();
+            flipped[i] ^= 1 << bit;
+            let (s, msgs) = try_deserialize(&flipped);
+            assert_eq!(s, Status::Error, "bit {bit} of byte {i}");
+            assert!(
+                msgs.iter().any(|m| m.contains("checksum mismatch")),
+                "bit {bit} of byte {i}: {msgs:?}"
+            );
+        }
+    }
+    // With a valid checksum, the length fields are still checked.
+    let mut short = body.clone();
+    short.pop();
     expect(
-        &good[..good.len() - 1],
+        &sealed(short),
         &format!(
             "buffer truncated: {} bytes, header announces {}",
             good.len() - 1,
             good.len()
         ),
     );
-    let mut long = good.clone();
+    let mut long = body.clone();
     long.push(0);
     expect(
-        &long,
+        &sealed(long),
         &format!(
             "buffer too long: {} bytes, header announces {}",
             good.len() + 1,
@@ -290,33 +327,33 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
     magic[0] = b'X';
     expect(&magic, "wrong magic bytes");
     let mut version = good.clone();
-    version[8..12].copy_from_slice(&2u32.to_le_bytes());
+    version[8..12].copy_from_slice(&1u32.to_le_bytes());
     expect(
         &version,
-        "unsupported format version 2, this FMU reads version 1",
+        "unsupported format version 1, this FMU reads version 2",
     );
-    let mut guid = good.clone();
+    let mut guid = body.clone();
     let g = 20 + Oscillator::MODEL_IDENTIFIER.len();
     guid[g] = b'#';
     expect(
-        &guid,
+        &sealed(guid),
         &format!("but this FMU is 'Oscillator' with GUID '{GUID}'"),
     );
-    let mut state = good.clone();
+    let mut state = body.clone();
     let at = state_code_offset();
     state[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
-    expect(&state, "invalid FMI state code 7");
-    let mut flags = good.clone();
+    expect(&sealed(state), "invalid FMI state code 7");
+    let mut flags = body.clone();
     flags[at + 4..at + 8].copy_from_slice(&0x100u32.to_le_bytes());
-    expect(&flags, "unknown flag bits 0x100");
-    let mut time = good.clone();
+    expect(&sealed(flags), "unknown flag bits 0x100");
+    let mut time = body.clone();
     time[at + 12 + 24..at + 12 + 32].copy_from_slice(&f64::NAN.to_le_bytes());
-    expect(&time, "a time field is not finite");
-    let mut payload = good.clone();
+    expect(&sealed(time), "a time field is not finite");
+    let mut payload = body.clone();
     payload.truncate(payload.len() - 8);
     let p = at + 12 + 40;
     payload[p..p + 8].copy_from_slice(&88u64.to_le_bytes());
-    expect(&payload, "payload has 88 bytes, expected 96");
+    expect(&sealed(payload), "payload has 88 bytes, expected 96");
 
     // A state of another model, serialized by that model's glue.
     let name = CString::new("other").unwrap();

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::import::{Fmu, ImportError, PLATFORM, write_fmu};
+use fmi2::import::{Fmu, ImportError, PLATFORM, SHARED_LIBRARY_EXTENSION, write_fmu};
 use fmi2::md::MdErrorKind;
 
 const VALID: &str = include_str!("fixtures/md/valid.xml");
@@ -167,10 +167,41 @@ fn missing_binary_names_the_expected_path() {
     let dir = temp();
     let err = open_err(&fmu_with(dir.path(), VALID));
     assert!(matches!(err, ImportError::MissingBinary { .. }), "{err:?}");
-    let expected = format!("binaries/{PLATFORM}/MiniPlatform.so");
+    let expected = format!("binaries/{PLATFORM}/MiniPlatform.{SHARED_LIBRARY_EXTENSION}");
     assert!(
-        err.to_string()
-            .ends_with(&format!("expected {expected} inside the archive")),
+        err.to_string().ends_with(&format!(
+            "no binary for this platform ({PLATFORM}): expected {expected} inside the archive; \
+             the archive has no binaries for any platform"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_binary_lists_the_platforms_the_archive_has() {
+    let dir = temp();
+    let path = dir.path().join("Elsewhere.fmu");
+    write_fmu(
+        &path,
+        VALID,
+        None,
+        &[
+            ("binaries/win32/MiniPlatform.dll", b"MZ"),
+            ("binaries/darwin64/MiniPlatform.dylib", b"x"),
+        ],
+    )
+    .unwrap();
+    let err = open_err(&path);
+    assert!(
+        matches!(&err, ImportError::MissingBinary { platform, available, .. }
+            if *platform == PLATFORM && available == &["darwin64", "win32"]),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().ends_with(&format!(
+            "expected binaries/{PLATFORM}/MiniPlatform.{SHARED_LIBRARY_EXTENSION} inside the \
+             archive; the archive has binaries for darwin64, win32"
+        )),
         "{err}"
     );
 }

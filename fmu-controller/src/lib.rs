@@ -148,6 +148,32 @@ impl HlcsController {
                 reference.pose.to_xyz_euler()
             ))
         })?;
+        // Never hand non-finite commands on with fmi2OK: the plant would then blame its own
+        // input. The first non-finite output is named with the time.
+        let outputs = [
+            ("force", &out.force),
+            ("memory_next", &out.memory_next),
+            ("length_ref", &out.length_ref),
+            ("error", &out.error),
+        ];
+        for (name, v) in outputs {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(ModelError::error(format!(
+                    "control law failed at t = {t} s: output {name}[{}] = {} is not finite \
+                     (inputs length = {:?} m, memory = {:?} N)",
+                    i + 1,
+                    v[i],
+                    input.length.as_slice(),
+                    input.memory.as_slice()
+                )));
+            }
+        }
+        if !integral.iter().all(|x| x.is_finite()) {
+            return Err(ModelError::error(format!(
+                "control law failed at t = {t} s: the error integral {:?} is not finite",
+                integral.as_slice()
+            )));
+        }
         if commit {
             sim.law.integral = integral;
         }
@@ -229,9 +255,19 @@ impl Model for HlcsController {
         restored.values.restore(&mut r)?;
         if r.u8()? == 1 {
             let start_time = r.f64()?;
+            if !start_time.is_finite() {
+                return Err(ModelError::error(format!(
+                    "saved controller state is invalid: start time {start_time}"
+                )));
+            }
             let mut sim = restored.build(start_time)?;
             let mut integral = [0.0; 6];
             r.f64s(&mut integral)?;
+            if !integral.iter().all(|x| x.is_finite()) {
+                return Err(ModelError::error(format!(
+                    "saved controller state is invalid: error integral {integral:?}"
+                )));
+            }
             sim.law.integral = Vector6::from_row_slice(&integral);
             restored.sim = Some(sim);
         }

@@ -2,17 +2,24 @@
 //!
 //! Actuator forces come in and are held over each communication step; the rigid-body
 //! model of `ckcm` is integrated over the step (RK4 with substeps, or adaptive
-//! Dormand–Prince); leg lengths, leg rates and the platform pose go out.
+//! Dormand–Prince); leg lengths, leg rates and the platform pose go out. The reported
+//! lengths and rates may carry seeded sensor noise (docs/model.md §10); the noise-free
+//! values stay observable as `length_true` and `velocity_true`.
 // Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;
-use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State};
+use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State, Workspace};
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
 use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
+use rand_chacha::ChaCha8Rng;
+use rand_chacha::rand_core::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
 
 /// Generated from `modelDescription/CkcmPlant.xml` by the build script.
 pub mod md {
+    // The table spells the XML's bounds as written there (±1.5707963267948966 rad).
+    #![allow(clippy::approx_constant)]
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 use md::vr;
@@ -32,7 +39,64 @@ pub struct CkcmPlant {
 struct Sim {
     mechanism: Mechanism,
     integrator: Integrator,
+    workspace: Workspace,
     state: State,
+    noise: Noise,
+    /// Index of the current communication point: 0 after initialization, +1 per doStep.
+    /// The noise is drawn from it (not from the time), so it survives any step size.
+    point: u64,
+}
+
+/// Seeded white Gaussian sensor noise on the reported lengths and rates (docs/model.md §10).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Noise {
+    /// σ of the noise on each `length[i]`, m (default 0: none).
+    sigma_length_m: f64,
+    /// σ of the noise on each `velocity[i]`, m/s (default 0: none).
+    sigma_velocity_mps: f64,
+    /// `noise_seed` (default 0).
+    seed: i32,
+}
+
+/// ChaCha words reserved for one channel's draw at one communication point: the ziggurat
+/// of `StandardNormal` takes two words per attempt and rarely needs a second attempt, so
+/// 256 words keep the channels' draws apart.
+const WORDS_PER_CHANNEL: u128 = 256;
+
+impl Noise {
+    /// Standard normal value of `channel` (0–5 the lengths of legs 1–6, 6–11 their rates) at
+    /// communication point `point`: a pure function of (seed, point, channel). Counter-based
+    /// rather than a running generator, so repeated gets, FMU state restore and resumed
+    /// campaigns see the same value without replaying any history. The ChaCha8 key is the
+    /// seed as a little-endian u64 followed by zeros, the stream is the point index and the
+    /// word position is the channel's block.
+    fn standard_normal(&self, point: u64, channel: u32) -> f64 {
+        let mut key = [0u8; 32];
+        key[..8].copy_from_slice(&i64::from(self.seed).to_le_bytes());
+        let mut rng = ChaCha8Rng::from_seed(key);
+        rng.set_stream(point);
+        rng.set_word_pos(u128::from(channel) * WORDS_PER_CHANNEL);
+        StandardNormal.sample(&mut rng)
+    }
+
+    /// Adds σ·n to each value; σ = 0 leaves the values untouched (bit for bit).
+    fn add(&self, values: &mut [f64], sigma: f64, point: u64, first_channel: u32) {
+        if sigma == 0.0 {
+            return;
+        }
+        for (i, x) in values.iter_mut().enumerate() {
+            *x += sigma * self.standard_normal(point, first_channel + i as u32);
+        }
+    }
+}
+
+impl Sim {
+    /// Checks `state` against the workspace (strokes, base plane, finiteness).
+    fn check(&self, state: &State) -> Result<(), ckcm::WorkspaceError> {
+        let legs = self.mechanism.inverse_kinematics(&state.pose);
+        let twist_finite = state.twist.iter().all(|x| x.is_finite());
+        self.workspace.check(&state.pose, twist_finite, &legs)
+    }
 }
 
 impl CkcmPlant {
@@ -80,16 +144,49 @@ impl CkcmPlant {
         }
     }
 
+    fn noise(&self) -> ModelResult<Noise> {
+        let noise = Noise {
+            sigma_length_m: self.values.real(vr::LENGTH_NOISE_SIGMA),
+            sigma_velocity_mps: self.values.real(vr::VELOCITY_NOISE_SIGMA),
+            seed: self.values.integer(vr::NOISE_SEED),
+        };
+        for (n, x) in [
+            ("length_noise_sigma", noise.sigma_length_m),
+            ("velocity_noise_sigma", noise.sigma_velocity_mps),
+        ] {
+            if x < 0.0 {
+                return Err(ModelError::error(format!("{n} = {x} must not be negative")));
+            }
+        }
+        if noise.seed < 0 {
+            return Err(ModelError::error(format!(
+                "noise_seed = {} must not be negative",
+                noise.seed
+            )));
+        }
+        Ok(noise)
+    }
+
     fn build(&self) -> ModelResult<Sim> {
         let mechanism =
             Mechanism::new(self.params()).map_err(|e| ModelError::error(e.to_string()))?;
+        let workspace = Workspace {
+            length_min: self.values.real(vr::LENGTH_MIN),
+            length_max: self.values.real(vr::LENGTH_MAX),
+        };
+        workspace
+            .validate()
+            .map_err(|e| ModelError::error(e.to_string()))?;
         let offset = self.values.real6(vr::INITIAL_POSE_1);
         let mut initial = offset;
         initial[2] += mechanism.params.geometry.home_height;
         Ok(Sim {
             mechanism,
             integrator: self.integrator()?,
+            workspace,
             state: State::at_rest(Pose::from_xyz_euler(&initial)),
+            noise: self.noise()?,
+            point: 0,
         })
     }
 
@@ -98,8 +195,15 @@ impl CkcmPlant {
         let legs = sim.mechanism.inverse_kinematics(&sim.state.pose);
         let rates = legs.leg_rates(&sim.state.twist);
         let pose = sim.state.pose.to_xyz_euler();
-        self.values.set_real6(vr::LENGTH_1, legs.length.as_slice());
-        self.values.set_real6(vr::VELOCITY_1, rates.as_slice());
+        let mut length: [f64; 6] = legs.length.into();
+        let mut velocity: [f64; 6] = rates.into();
+        self.values.set_real6(vr::LENGTH_TRUE_1, &length);
+        self.values.set_real6(vr::VELOCITY_TRUE_1, &velocity);
+        let noise = sim.noise;
+        noise.add(&mut length, noise.sigma_length_m, sim.point, 0);
+        noise.add(&mut velocity, noise.sigma_velocity_mps, sim.point, 6);
+        self.values.set_real6(vr::LENGTH_1, &length);
+        self.values.set_real6(vr::VELOCITY_1, &velocity);
         self.values.set_real6(vr::POSE_1, &pose);
     }
 }
@@ -134,26 +238,47 @@ impl Model for CkcmPlant {
         Ok(())
     }
 
-    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
-        self.sim = Some(self.build()?);
+    fn initialize(&mut self, start_time: f64) -> ModelResult<()> {
+        let sim = self.build()?;
+        // A geometry whose home or initial pose lies outside the workspace (or whose leg
+        // lengths overflow) cannot be simulated: an error here, not outputs of inf.
+        sim.check(&sim.state).map_err(|e| {
+            ModelError::error(format!(
+                "the initial pose (home_height + initial_pose) is outside the workspace: \
+                 at t = {start_time} s {e}"
+            ))
+        })?;
+        self.sim = Some(sim);
         self.write_outputs();
         Ok(())
     }
 
+    /// Integrates a copy of the state and commits it only if it stays in the workspace:
+    /// a step that leaves it (or whose integration fails) is discarded, the outputs keep
+    /// the last accepted state, and the message names the cause and the time.
     fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()> {
         let force = Vector6::from_row_slice(&self.values.real6(vr::FORCE_1));
         let sim = self
             .sim
             .as_mut()
             .ok_or_else(|| ModelError::error("doStep before initialization"))?;
-        sim.integrator
-            .advance(&sim.mechanism, &mut sim.state, &force, h)
-            .map_err(|e| {
-                ModelError::error(format!(
-                    "the plant could not be advanced from t = {t} s by {h} s under force = {:?} N: {e}",
-                    force.as_slice()
-                ))
-            })?;
+        let mut next = sim.state;
+        let mut integrator = sim.integrator;
+        let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
+        let end = t + h;
+        let checked = match advanced {
+            Ok(()) => sim.check(&next).map_err(|e| format!("at t = {end} s {e}")),
+            Err(e) => Err(format!("at t = {end} s {e}")),
+        };
+        checked.map_err(|e| {
+            ModelError::discard(format!(
+                "the step from t = {t} s by {h} s under force = {:?} N is refused: {e}",
+                force.as_slice()
+            ))
+        })?;
+        sim.state = next;
+        sim.integrator = integrator;
+        sim.point += 1;
         self.write_outputs();
         Ok(())
     }
@@ -172,6 +297,7 @@ impl Model for CkcmPlant {
                     Integrator::DormandPrince(dp) => dp.h_next,
                     Integrator::Rk4(_) => 0.0,
                 });
+                w.u64(sim.point);
             }
         }
     }
@@ -195,6 +321,19 @@ impl Model for CkcmPlant {
             if let Integrator::DormandPrince(dp) = &mut sim.integrator {
                 dp.h_next = buf[13];
             }
+            sim.point = r.u64()?;
+            // A state this plant could have reached: finite, a unit quaternion, inside the
+            // workspace, a usable step-size proposal.
+            let norm = sim.state.pose.q_world.coords.norm();
+            if !((norm - 1.0).abs() < 1e-9 && buf[13].is_finite() && buf[13] >= 0.0) {
+                return Err(ModelError::error(format!(
+                    "saved plant state is invalid: orientation quaternion norm {norm}, \
+                     step-size proposal {} s",
+                    buf[13]
+                )));
+            }
+            sim.check(&sim.state)
+                .map_err(|e| ModelError::error(format!("saved plant state is invalid: {e}")))?;
             restored.sim = Some(sim);
         }
         r.finish()?;

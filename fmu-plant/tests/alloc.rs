@@ -27,12 +27,13 @@ fn array(base: &str) -> [u32; 6] {
 const H: f64 = 1e-3;
 const STEPS: u32 = 1000;
 
-/// Initialises a plant (`adaptive` selects Dormand–Prince at relative tolerance 1e-8), takes
+/// Initialises a plant (`adaptive` selects Dormand–Prince at relative tolerance 1e-8, `noise`
+/// turns the sensor noise on), takes
 /// one warm-up step, then counts the allocations of 1000 doSteps, each with the six forces
 /// set and all 18 outputs read. The forces hold the platform against gravity plus a PD pull
 /// towards leg lengths swinging ±5 mm about home, so the state keeps changing. Returns the
 /// count and the last leg lengths.
-fn count_steps(adaptive: bool) -> (usize, [f64; 6]) {
+fn count_steps(adaptive: bool, noise: bool) -> (usize, [f64; 6]) {
     let force = array("force");
     let outputs: Vec<u32> = ["length", "velocity", "pose"]
         .iter()
@@ -46,6 +47,11 @@ fn count_steps(adaptive: bool) -> (usize, [f64; 6]) {
     if adaptive {
         plant.set_integer(vr("integrator"), 2).unwrap();
         plant.set_real(vr("relative_tolerance"), 1e-8).unwrap();
+    }
+    if noise {
+        plant.set_real(vr("length_noise_sigma"), 1e-6).unwrap();
+        plant.set_real(vr("velocity_noise_sigma"), 1e-5).unwrap();
+        plant.set_integer(vr("noise_seed"), 42).unwrap();
     }
     plant.initialize(0.0).unwrap();
     let mut y = [0.0; 18];
@@ -75,14 +81,21 @@ fn count_steps(adaptive: bool) -> (usize, [f64; 6]) {
 
 #[test]
 fn rk4_step_loop_does_not_allocate() {
-    let (during, length) = count_steps(false);
+    let (during, length) = count_steps(false, false);
     assert_eq!(during, 0, "1000 RK4 doSteps allocated {during} times");
     assert!(length.iter().all(|l| (0.5..0.65).contains(l)), "{length:?}");
 }
 
 #[test]
+fn step_loop_with_sensor_noise_does_not_allocate() {
+    let (during, length) = count_steps(false, true);
+    assert_eq!(during, 0, "1000 noisy RK4 doSteps allocated {during} times");
+    assert!(length.iter().all(|l| (0.5..0.65).contains(l)), "{length:?}");
+}
+
+#[test]
 fn dormand_prince_step_loop_does_not_allocate() {
-    let (during, length) = count_steps(true);
+    let (during, length) = count_steps(true, false);
     assert_eq!(
         during, 0,
         "1000 Dormand–Prince doSteps allocated {during} times"

@@ -23,6 +23,11 @@ pub enum Command {
     Info(InfoArgs),
     /// Reproduce the paper's simulation study: line and circle, PID / PD-type ILC / HLCS.
     Paper(PaperArgs),
+    /// Predict whether learning converges for a scenario, per leg-space mode and frequency,
+    /// and the largest safe Q-filter cutoff for its lead (docs/convergence.md).
+    Analyze(AnalyzeArgs),
+    /// Run a parameter study or Monte Carlo sweep: one campaign per case of a sweep file.
+    Sweep(SweepArgs),
 }
 
 /// `run`.
@@ -42,9 +47,20 @@ pub struct RunArgs {
     /// Ask the FMUs for debug logging (messages go to stderr).
     #[arg(long)]
     pub fmu_logging: bool,
+    /// Start a new campaign in an --out folder that already holds one, replacing it (the
+    /// old files are removed once the new first trial has succeeded).
+    #[arg(long, conflicts_with = "resume")]
+    pub force: bool,
+    /// Refuse to start a campaign estimated to need more memory than this, in MiB
+    /// (default: the scenario's `memory_limit_mib`, else 4096).
+    #[arg(long, value_name = "MIB")]
+    pub memory_limit_mib: Option<u64>,
     /// Stop after this many trials in total, as if interrupted (for testing resume).
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,
+    /// Abort at the n-th file operation, as if killed (for testing resume).
+    #[arg(long, hide = true)]
+    pub crash_at: Option<usize>,
 }
 
 /// `simulate`.
@@ -66,7 +82,8 @@ pub struct SimulateArgs {
     /// Stop time in s (default: the model's DefaultExperiment, else 1).
     #[arg(long)]
     pub stop_time: Option<f64>,
-    /// Communication step size in s (default: the model's DefaultExperiment, else 1e-3).
+    /// Communication step size in s (default: the model's DefaultExperiment, else fmpy's
+    /// default output interval: 500 to 1000 steps over the span, e.g. 2 ms for 1 s).
     #[arg(long)]
     pub step_size: Option<f64>,
     /// Start values, NAME=VALUE (repeatable): numbers for Real and Integer, true/false for
@@ -115,4 +132,90 @@ pub struct PaperArgs {
     /// depend on it.
     #[arg(long)]
     pub jobs: Option<usize>,
+}
+
+/// `analyze`. The update settings come from the scenario's first `[[memory]]` channel
+/// (`[memory.update]`); the options below override them.
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// The scenario file (TOML).
+    pub scenario: PathBuf,
+    /// Output directory for convergence.csv, convergence.svg and summary.md
+    /// (default: results/<scenario file stem>-convergence). The summary also goes to stdout.
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Butterworth order N_Q of the filter (default: the scenario's, else 4).
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
+    #[arg(long, conflicts_with = "no_filter")]
+    pub cutoff: Option<f64>,
+    /// Analyse without the filter, whatever the scenario says.
+    #[arg(long)]
+    pub no_filter: bool,
+    /// Lead δ, samples.
+    #[arg(long)]
+    pub lead: Option<usize>,
+    /// Forgetting factor α.
+    #[arg(long)]
+    pub forgetting: Option<f64>,
+    /// Gain g on the learning increment.
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Scale the controller's learning gains Φ, Γ, Ψ (default 1).
+    #[arg(long, default_value_t = 1.0)]
+    pub gain_scale: f64,
+    /// How long, s, a pose must last to count in the sustained-mass prediction.
+    #[arg(long, default_value_t = 1.0)]
+    pub dwell: f64,
+    /// Spacing, s, of the poses sampled along the reference.
+    #[arg(long, default_value_t = 0.005)]
+    pub stride: f64,
+}
+
+/// `sweep`.
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    pub action: Option<SweepAction>,
+    /// The sweep file (TOML): a base scenario plus axes.
+    #[arg(required = true)]
+    pub sweep: Option<PathBuf>,
+    /// Output directory (default: results/<sweep file stem>).
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Cases run at the same time (default: the available cores); results do not depend on it.
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Run only shard K of N (cases i with i mod N = K), e.g. `--shard 3/8` or
+    /// `--shard $SLURM_ARRAY_TASK_ID/8`; combine the shard folders with `sweep merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Continue a sweep in --out: finished cases are kept, unfinished ones resumed.
+    #[arg(long)]
+    pub resume: bool,
+    /// Ask the FMUs for debug logging (messages go to stderr).
+    #[arg(long)]
+    pub fmu_logging: bool,
+}
+
+/// Subcommands of `sweep`.
+#[derive(Debug, Subcommand)]
+pub enum SweepAction {
+    /// Combine the folders of every shard of a sweep into the results of an unsharded run.
+    Merge(SweepMergeArgs),
+}
+
+/// `sweep merge`.
+#[derive(Debug, Args)]
+pub struct SweepMergeArgs {
+    /// The sweep file the shards ran.
+    pub sweep: PathBuf,
+    /// The shard folders (each written by `sweep --shard K/N`), all N of them.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output directory for the merged sweep.
+    #[arg(short, long)]
+    pub out: PathBuf,
 }

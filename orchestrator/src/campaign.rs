@@ -5,24 +5,35 @@
 //! - `scenario.toml`: the scenario as run;
 //! - `trials/trial_NNN.csv`: recorded variables of each recorded trial;
 //! - `memory/after_trial_NNN.f64`: the iteration memory the last completed trial NNN produced
-//!   (read by trial NNN+1; exact binary; older ones are removed once the next trial is done);
+//!   (read by trial NNN+1; exact binary with a format version and a checksum; older ones are
+//!   removed once the next trial is done);
 //! - `memory.csv`: that memory as a table, written when the run ends;
 //! - `summary.csv`: metrics of every completed trial;
 //! - `progress.toml`: completed trial count and a fingerprint of scenario and FMUs,
-//!   written last, so it never claims a trial whose files are missing.
+//!   written last, so it never claims a trial whose files are missing;
+//! - `.lock`: present while a run holds the folder (see [`lock`]).
+//!
+//! Guarantees: one run at a time per folder; a new run refuses a folder that already holds
+//! files unless forced, and even then removes the old campaign only once its own first trial
+//! succeeded; `--resume` removes what a killed run left half-done (temporary files, memory
+//! files of trials that `progress.toml` does not claim) and finishes every file.
+
+mod lock;
 
 use std::fs;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
 use fmi2::import::Fmu;
 use indicatif::{ProgressBar, ProgressStyle};
 
+pub use self::lock::{DirLock, LOCK_FILE};
 use crate::master::{Master, MasterError, TrialSignals};
 use crate::output::{
     CsvExporter, OutputError, Recording, write_atomic, write_recording, write_table_csv,
 };
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ScenarioError};
 
 /// A campaign failure.
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +42,8 @@ pub enum CampaignError {
     Master(#[from] MasterError),
     #[error(transparent)]
     Output(#[from] OutputError),
+    #[error(transparent)]
+    TooLarge(#[from] ScenarioError),
     #[error("cannot resume in {dir}: {message}")]
     Resume { dir: PathBuf, message: String },
     #[error("cannot create {path}: {source}")]
@@ -38,7 +51,32 @@ pub enum CampaignError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error("cannot lock {path}: {source}")]
+    Lock {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
+        "{} is in use by another run ({holder}); wait for it to end or choose another --out",
+        dir.display()
+    )]
+    Locked { dir: PathBuf, holder: String },
+    #[error(
+        "{} already holds {what}; a new run would replace it: use --resume to continue it, \
+         --force to replace it, or choose another --out",
+        dir.display()
+    )]
+    NotEmpty { dir: PathBuf, what: String },
+    #[error("cannot remove {path}: {source}")]
+    Remove {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
+
+/// Default of [`CampaignOptions::memory_limit_mib`] and of the scenario key
+/// `memory_limit_mib`: 4 GiB.
+pub const DEFAULT_MEMORY_LIMIT_MIB: u64 = 4096;
 
 /// How to run a campaign.
 #[derive(Debug, Clone)]
@@ -52,6 +90,15 @@ pub struct CampaignOptions {
     pub progress: bool,
     /// Stop after this many trials in total (for tests of interruption); `None` runs all.
     pub stop_after: Option<usize>,
+    /// Start a new campaign even if `out_dir` holds files (the old campaign's files are
+    /// removed once the new first trial has succeeded).
+    pub force: bool,
+    /// Refuse to start when the campaign would need more memory than this, in MiB; `None`
+    /// takes the scenario's `memory_limit_mib`, else [`DEFAULT_MEMORY_LIMIT_MIB`].
+    pub memory_limit_mib: Option<u64>,
+    /// Abort the process (no clean-up, like SIGKILL) at the n-th file operation, counting
+    /// from 1: for tests that interrupt a campaign at every point.
+    pub crash_at: Option<usize>,
 }
 
 /// Metrics of one trial.
@@ -148,7 +195,7 @@ impl TrialSummary {
 
 /// FNV-1a, 64 bit: a stable fingerprint across builds and platforms (std's hasher is not
 /// guaranteed stable), over a handful of bytes where speed does not matter.
-fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
     bytes.iter().fold(hash, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
     })
@@ -180,15 +227,41 @@ fn memory_file(dir: &Path, k: usize) -> PathBuf {
     dir.join("memory").join(format!("after_trial_{k:03}.f64"))
 }
 
-/// Magic bytes of a memory file (format version 1).
-const MEMORY_MAGIC: &[u8; 8] = b"CKCMMEM1";
+/// Magic bytes of a memory file; the last byte is the format version.
+const MEMORY_MAGIC: &[u8; 8] = b"CKCMMEM2";
+/// The first format, without a checksum; recognised only to say so.
+const MEMORY_MAGIC_V1: &[u8; 8] = b"CKCMMEM1";
 
-/// The iteration memory for resuming, exact and fast: `CKCMMEM1`, the channel count and
-/// each channel's length (u64), then every channel's values (f64), all little-endian.
-/// Formatting 10⁵ floats as text after every trial would cost more than the trial's
-/// co-simulation overhead; the readable `memory.csv` is written once at the end.
+/// A writer that passes bytes on and keeps their CRC-32.
+struct Crc<'a> {
+    inner: &'a mut dyn Write,
+    hasher: crc32fast::Hasher,
+}
+
+impl Write for Crc<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The iteration memory for resuming, exact and fast: `CKCMMEM2` (format version 2), the
+/// channel count and each channel's length (u64), every channel's values (f64), then the
+/// CRC-32 of everything before it (u32), all little-endian. The checksum turns a corrupted
+/// or hand-edited file into an error instead of a silently different campaign. Formatting
+/// 10⁵ floats as text after every trial would cost more than the trial's co-simulation
+/// overhead; the readable `memory.csv` is written once at the end.
 fn write_memory(path: &Path, buffers: &[&[f64]]) -> Result<(), OutputError> {
     write_atomic(path, |w| {
+        let mut w = Crc {
+            inner: w,
+            hasher: crc32fast::Hasher::new(),
+        };
         w.write_all(MEMORY_MAGIC)?;
         w.write_all(&(buffers.len() as u64).to_le_bytes())?;
         for b in buffers {
@@ -199,44 +272,72 @@ fn write_memory(path: &Path, buffers: &[&[f64]]) -> Result<(), OutputError> {
                 w.write_all(&x.to_le_bytes())?;
             }
         }
-        Ok(())
+        let crc = w.hasher.finalize();
+        w.inner.write_all(&crc.to_le_bytes())
     })
 }
 
-/// Reads a memory file, checking it holds channels of exactly `lens` values.
+/// Reads a memory file, checking its version and checksum, that it holds channels of
+/// exactly `lens` values, and that every value is finite.
 fn read_memory(path: &Path, lens: &[usize]) -> Result<Vec<Vec<f64>>, String> {
     let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let bad = |what: &str| format!("{}: {what}", path.display());
-    let mut at = 0;
+    if bytes.starts_with(MEMORY_MAGIC_V1) {
+        return Err(bad(
+            "memory file format version 1 (without a checksum) is no longer read; \
+             start the campaign again without --resume",
+        ));
+    }
+    if !bytes.starts_with(MEMORY_MAGIC) {
+        return Err(bad("not a memory file of this program (wrong magic bytes)"));
+    }
+    let Some(body_len) = bytes.len().checked_sub(4) else {
+        return Err(bad("truncated memory file"));
+    };
+    let (body, stored) = bytes.split_at(body_len);
+    let stored = u32::from_le_bytes(stored.try_into().expect("4 bytes"));
+    let computed = crc32fast::hash(body);
+    if stored != computed {
+        return Err(bad(&format!(
+            "checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is \
+             corrupted or was edited; start the campaign again without --resume"
+        )));
+    }
+    let mut at = MEMORY_MAGIC.len();
     let mut take = |n: usize| -> Result<&[u8], String> {
-        let s = bytes
-            .get(at..at + n)
+        let s = at
+            .checked_add(n)
+            .and_then(|end| body.get(at..end))
             .ok_or_else(|| bad("truncated memory file"))?;
         at += n;
         Ok(s)
     };
-    if take(8)? != MEMORY_MAGIC {
-        return Err(bad("not a memory file of this program"));
-    }
-    let u64_at = |s: &[u8]| u64::from_le_bytes(s.try_into().expect("8 bytes")) as usize;
-    if u64_at(take(8)?) != lens.len() {
+    let u64_at = |s: &[u8]| u64::from_le_bytes(s.try_into().expect("8 bytes"));
+    if u64_at(take(8)?) != lens.len() as u64 {
         return Err(bad("memory channels do not match the scenario"));
     }
     for &len in lens {
-        if u64_at(take(8)?) != len {
+        if u64_at(take(8)?) != len as u64 {
             return Err(bad("memory length does not match the scenario"));
         }
     }
     let mut out = Vec::with_capacity(lens.len());
-    for &len in lens {
+    for (c, &len) in lens.iter().enumerate() {
         let raw = take(len * 8)?;
-        out.push(
-            raw.chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect(),
-        );
+        let values: Vec<f64> = raw
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect();
+        if let Some(i) = values.iter().position(|x| !x.is_finite()) {
+            return Err(bad(&format!(
+                "memory channel {} value {i} is {}, not a finite number",
+                c + 1,
+                values[i]
+            )));
+        }
+        out.push(values);
     }
-    if at != bytes.len() {
+    if at != body.len() {
         return Err(bad("trailing bytes in memory file"));
     }
     Ok(out)
@@ -263,6 +364,161 @@ fn write_memory_csv(
     write_recording(path, &mem, &CsvExporter)
 }
 
+/// Bytes a campaign of `scenario` holds at its peak (8 bytes per value): the read and write
+/// memory buffers, a resumed memory, the `memory.csv` table, the recording of one trial, the
+/// full-rate signals and the metric work arrays. FMU-internal memory is not included.
+pub fn memory_estimate(scenario: &Scenario) -> u64 {
+    let steps = scenario.steps as f64;
+    let memory_width: usize = scenario
+        .memory
+        .iter()
+        .map(|l| l.link.from.value_references.len())
+        .sum();
+    let recorded: usize = scenario.record.ports.iter().map(|p| p.names.len()).sum();
+    let rows = (steps / scenario.record.interval as f64).ceil();
+    // Memory: read + write + resumed copy + memory.csv (with its time column).
+    let memory = steps * (4 * memory_width + 1) as f64;
+    let recording = rows * (recorded + 1) as f64;
+    // Signals: time, six errors, x y z; metrics: relative time, desired x y z.
+    let signals = steps * (1 + 6 + 3 + 1 + 3) as f64;
+    let bytes = 8.0 * (memory + recording + signals);
+    if bytes >= u64::MAX as f64 {
+        u64::MAX
+    } else {
+        bytes as u64
+    }
+}
+
+/// Refuses a campaign whose [`memory_estimate`] exceeds the limit, naming the scenario line
+/// that sets its length, before anything is allocated.
+pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), ScenarioError> {
+    let (limit, from) = match (limit_mib, scenario.memory_limit_mib) {
+        (Some(l), _) => (l, "--memory-limit-mib"),
+        (None, Some(l)) => (l, "the scenario's memory_limit_mib"),
+        (None, None) => (DEFAULT_MEMORY_LIMIT_MIB, "the default limit"),
+    };
+    let need = memory_estimate(scenario);
+    if need <= limit.saturating_mul(1 << 20) {
+        return Ok(());
+    }
+    Err(ScenarioError {
+        file: scenario.source.clone(),
+        line: scenario.stop_time_line,
+        message: format!(
+            "{} steps per trial (stop_time = {} s, step_size = {} s) need about {:.1} MiB of \
+             memory, more than {from} of {limit} MiB; shorten the trial, enlarge the step, \
+             or raise the limit with --memory-limit-mib or memory_limit_mib in the scenario",
+            scenario.steps,
+            scenario.stop_time,
+            scenario.step_size,
+            need as f64 / f64::from(1 << 20),
+        ),
+    })
+}
+
+/// Counts file operations and aborts the process at the requested one (see
+/// [`CampaignOptions::crash_at`]).
+struct CrashPoint {
+    at: Option<usize>,
+    count: usize,
+}
+
+impl CrashPoint {
+    fn tick(&mut self) {
+        self.count += 1;
+        if self.at == Some(self.count) {
+            std::process::abort();
+        }
+    }
+}
+
+/// Whether `name` is a temporary file of [`write_atomic`] (`.<name>.tmp-<pid>-<n>`).
+fn is_temporary(name: &str) -> bool {
+    name.starts_with('.') && name.contains(".tmp-")
+}
+
+/// Files in `dir` other than the lock file, for the message refusing a new campaign.
+fn existing_files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n != LOCK_FILE)
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+fn remove_file_if_present(path: &Path) -> Result<(), CampaignError> {
+    match fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CampaignError::Remove {
+            path: path.to_path_buf(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
+fn remove_dir_if_present(path: &Path) -> Result<(), CampaignError> {
+    match fs::remove_dir_all(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(CampaignError::Remove {
+            path: path.to_path_buf(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Removes the files of a previous campaign in `dir` (only the campaign's own names),
+/// `progress.toml` first so an interruption never leaves a folder that claims trials.
+fn remove_campaign(dir: &Path) -> Result<(), CampaignError> {
+    remove_file_if_present(&dir.join("progress.toml"))?;
+    for file in ["summary.csv", "memory.csv", "scenario.toml"] {
+        remove_file_if_present(&dir.join(file))?;
+    }
+    for sub in ["trials", "memory"] {
+        remove_dir_if_present(&dir.join(sub))?;
+    }
+    remove_leftovers(dir, 0)
+}
+
+/// On resume after `completed` trials: removes temporary files of interrupted writes,
+/// memory files other than the one trial `completed` reads, and trial files of trials that
+/// will run again.
+fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
+    let keep_memory = completed
+        .checked_sub(1)
+        .map(|k| memory_file(dir, k).file_name().map(ToOwned::to_owned));
+    for sub in [dir.to_path_buf(), dir.join("trials"), dir.join("memory")] {
+        let Ok(entries) = fs::read_dir(&sub) else {
+            continue;
+        };
+        for entry in entries.filter_map(Result::ok) {
+            let name = entry.file_name();
+            let text = name.to_string_lossy();
+            let stale = is_temporary(&text)
+                || (sub.ends_with("memory")
+                    && text.starts_with("after_trial_")
+                    && keep_memory
+                        .as_ref()
+                        .is_none_or(|k| k.as_deref() != Some(&*name)))
+                || (sub.ends_with("trials")
+                    && text
+                        .strip_prefix("trial_")
+                        .and_then(|r| r.strip_suffix(".csv"))
+                        .and_then(|n| n.parse::<usize>().ok())
+                        .is_some_and(|k| k >= completed));
+            if stale {
+                remove_file_if_present(&entry.path())?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
 /// returning the summaries of all trials.
 pub fn run_campaign(
@@ -271,13 +527,20 @@ pub fn run_campaign(
     fmus: Vec<Fmu>,
     opts: &CampaignOptions,
 ) -> Result<Vec<TrialSummary>, CampaignError> {
+    check_memory(scenario, opts.memory_limit_mib)?;
     let dir = &opts.out_dir;
     let fp = fingerprint(scenario, scenario_text)?;
+    let _lock = DirLock::acquire(dir)?;
+    let mut crash = CrashPoint {
+        at: opts.crash_at,
+        count: 0,
+    };
     let mut master = Master::new(scenario, fmus, opts.fmu_logging)?;
     let mut summaries: Vec<TrialSummary> = Vec::new();
     let mut first = 0;
     let progress_file = dir.join("progress.toml");
-    if opts.resume && progress_file.exists() {
+    let resuming = opts.resume && progress_file.exists();
+    if resuming {
         let resume_err = |message: String| CampaignError::Resume {
             dir: dir.clone(),
             message,
@@ -310,12 +573,22 @@ pub fn run_campaign(
             let data = read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?;
             master.set_memory(&data);
         }
-    } else {
-        // A fresh campaign: forget a previous one in the same directory (only our own files).
-        let _ = fs::remove_file(&progress_file);
-        let _ = fs::remove_dir_all(dir.join("trials"));
-        let _ = fs::remove_dir_all(dir.join("memory"));
-        let _ = fs::remove_file(dir.join("summary.csv"));
+        remove_leftovers(dir, first)?;
+    } else if !opts.resume && !opts.force {
+        let files = existing_files(dir);
+        if !files.is_empty() {
+            let what = match fs::read_to_string(&progress_file)
+                .ok()
+                .and_then(|t| toml::from_str::<Progress>(&t).ok())
+            {
+                Some(p) => format!("a campaign ({} completed trials)", p.completed),
+                None => format!("files ({})", files.join(", ")),
+            };
+            return Err(CampaignError::NotEmpty {
+                dir: dir.clone(),
+                what,
+            });
+        }
     }
     let last = opts
         .stop_after
@@ -346,6 +619,11 @@ pub fn run_campaign(
                 bar.inc(1000);
             }
         })?;
+        if k == first && !resuming {
+            // A new campaign replaces an old one only now that its first trial succeeded.
+            remove_campaign(dir)?;
+            crash.tick();
+        }
         // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
         for sub in ["trials", "memory"] {
             let p = dir.join(sub);
@@ -356,34 +634,43 @@ pub fn run_campaign(
             write_atomic(&dir.join("scenario.toml"), |w| {
                 w.write_all(scenario_text.as_bytes())
             })?;
+            crash.tick();
         }
         if record_this {
             write_recording(&trial_csv(dir, k), &recording, &CsvExporter)?;
+            crash.tick();
         }
         write_memory(&memory_file(dir, k), &master.memory())?;
+        crash.tick();
         summaries.push(TrialSummary::compute(k, scenario, &signals));
         let rows: Vec<Vec<String>> = summaries.iter().map(TrialSummary::to_row).collect();
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
+        crash.tick();
         let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", k + 1);
         write_atomic(&progress_file, |w| w.write_all(progress.as_bytes()))?;
+        crash.tick();
         // Resume needs only the newest memory; the older one is stale once progress moved on.
         if k > 0 {
             let _ = fs::remove_file(memory_file(dir, k - 1));
+            crash.tick();
         }
     }
     bar.finish_and_clear();
-    if last > first {
+    // Also when a resumed campaign had nothing left to run: a run killed right after its
+    // last progress.toml still gets its memory.csv.
+    if last > first || (resuming && first == scenario.trials && first > 0) {
         write_memory_csv(
             &dir.join("memory.csv"),
             scenario,
             &memory_names,
             &master.memory(),
         )?;
+        crash.tick();
     }
     Ok(summaries)
 }
 
-fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
+pub fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
     let mut reader =
         csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut out = Vec::new();

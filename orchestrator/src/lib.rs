@@ -8,3 +8,4 @@ pub mod master;
 pub mod output;
 pub mod paper;
 pub mod scenario;
+pub mod sweep;

@@ -1,4 +1,5 @@
-//! `orchestrator`: run scenarios, simulate single FMUs, inspect FMUs, reproduce the paper.
+//! `orchestrator`: run scenarios, simulate single FMUs, inspect FMUs, reproduce the paper,
+//! analyse the convergence of learning.
 #![deny(unsafe_code)]
 
 mod args;
@@ -8,13 +9,29 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+/// Exit code after SIGINT, SIGTERM or SIGHUP (128 + SIGINT, as shells report Ctrl-C).
+const EXIT_INTERRUPTED: i32 = 130;
+
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
+    // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
+    // exiting. Result files need nothing: each is written to a temporary file and renamed,
+    // and `run --resume` removes temporaries an interrupted run left behind. Without a
+    // handler (if installing it fails) the next start reaps the folders instead.
+    let _ = ctrlc::set_handler(|| {
+        let removed = fmi2::import::remove_extraction_dirs();
+        eprintln!(
+            "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign"
+        );
+        std::process::exit(EXIT_INTERRUPTED);
+    });
     let result = match cli.command {
         args::Command::Run(a) => commands::run::run(a),
         args::Command::Simulate(a) => commands::simulate::run(a),
         args::Command::Info(a) => commands::info::run(a),
         args::Command::Paper(a) => commands::paper::run(a),
+        args::Command::Analyze(a) => commands::analyze::run(a),
+        args::Command::Sweep(a) => commands::sweep::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -58,7 +58,7 @@ pub enum MasterError {
 
 /// Log categories, in the naming Reference-FMUs and our FMUs use, that report failed or
 /// questionable calls and nothing else.
-const STATUS_CATEGORIES: [&str; 4] = [
+pub const STATUS_CATEGORIES: [&str; 4] = [
     "logStatusWarning",
     "logStatusDiscard",
     "logStatusError",
@@ -134,10 +134,13 @@ pub struct Master<'s> {
     wiring: Vec<Wiring>,
     bus: Vec<f64>,
     channels: Vec<Channel>,
-    /// One sample: recorded columns, then the six leg errors, then x, y, z.
+    /// One sample: recorded columns, then the six leg errors (or six references and six
+    /// true lengths), then x, y, z.
     row: Vec<f64>,
     column_names: Vec<String>,
     has_error: bool,
+    /// Whether the leg errors are reference − length rather than an error output.
+    error_difference: bool,
     has_pose: bool,
     initialized_once: bool,
 }
@@ -193,7 +196,9 @@ impl<'s> Master<'s> {
             need(p);
         }
         if let Some(m) = &scenario.metrics {
-            need(&m.error);
+            for p in m.error.ports() {
+                need(p);
+            }
             if let Some(p) = &m.pose {
                 need(p);
             }
@@ -268,7 +273,7 @@ impl<'s> Master<'s> {
         let mut column_names = Vec::new();
         let mut taps: Vec<&Port> = scenario.record.ports.iter().collect();
         let metrics = scenario.metrics.as_ref();
-        taps.extend(metrics.map(|m| &m.error));
+        taps.extend(metrics.into_iter().flat_map(|m| m.error.ports()));
         taps.extend(metrics.and_then(|m| m.pose.as_ref()));
         let mut columns = 0;
         for (t, p) in taps.iter().enumerate() {
@@ -306,6 +311,8 @@ impl<'s> Master<'s> {
             column_names,
             wiring,
             has_error: metrics.is_some(),
+            error_difference: metrics
+                .is_some_and(|m| matches!(m.error, crate::scenario::LegError::Difference { .. })),
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
         })
@@ -373,8 +380,10 @@ impl<'s> Master<'s> {
             if self.initialized_once {
                 inst.reset().map_err(setup("fmi2Reset"))?;
             }
+            // Per-trial values (e.g. a noise seed) make each trial draw fresh noise while
+            // trial k always gets the same values, also on resume.
             for s in &spec.settings {
-                match s.value {
+                match s.value_in_trial(trial) {
                     Value::Real(x) => inst.set_real(&[s.value_reference], &[x]).map(|_| ()),
                     Value::Integer(x) => inst.set_integer(&[s.value_reference], &[x]).map(|_| ()),
                     Value::Boolean(x) => inst.set_boolean(&[s.value_reference], &[x]).map(|_| ()),
@@ -511,13 +520,20 @@ impl<'s> Master<'s> {
                 }
             }
             let ncols = self.column_names.len();
+            let mut pose_col = ncols;
             if self.has_error {
+                let taps = &self.row[ncols..];
                 for (leg, e) in signals.error.iter_mut().enumerate() {
-                    e.push(self.row[ncols + leg]);
+                    e.push(if self.error_difference {
+                        taps[leg] - taps[6 + leg]
+                    } else {
+                        taps[leg]
+                    });
                 }
+                pose_col += if self.error_difference { 12 } else { 6 };
             }
             if self.has_pose {
-                let p = &self.row[ncols + 6..ncols + 9];
+                let p = &self.row[pose_col..pose_col + 3];
                 signals.position.push([p[0], p[1], p[2]]);
             }
             signals.time.push(t);

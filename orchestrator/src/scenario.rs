@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2::export::{Causality, VarType};
-use fmi2::md::{ModelDescription, SimpleTypeKind, VariableKind};
+use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -40,7 +40,10 @@ struct RawScenario {
     #[serde(default = "no_record")]
     record: RawRecord,
     #[serde(default)]
-    metrics: Option<RawMetrics>,
+    metrics: Option<Spanned<RawMetrics>>,
+    /// Refuse to run beyond this estimated memory, MiB (see `campaign::check_memory`).
+    #[serde(default)]
+    memory_limit_mib: Option<Spanned<u64>>,
 }
 
 fn no_record() -> RawRecord {
@@ -115,7 +118,15 @@ struct RawRecord {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMetrics {
-    error: Spanned<String>,
+    /// Six leg errors computed by an FMU.
+    #[serde(default)]
+    error: Option<Spanned<String>>,
+    /// Six desired leg lengths; with `length`, the error is reference − length.
+    #[serde(default)]
+    reference: Option<Spanned<String>>,
+    /// Six true (noise-free) leg lengths.
+    #[serde(default)]
+    length: Option<Spanned<String>>,
     #[serde(default = "default_rho")]
     rho: Spanned<f64>,
     #[serde(default)]
@@ -127,6 +138,9 @@ struct RawMetrics {
 fn default_rho() -> Spanned<f64> {
     Spanned::new(0..0, DEFAULT_RHO)
 }
+
+/// Most steps per trial: 2^53, where t_n = t_0 + n·h stops telling samples apart.
+const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 
 /// Default weight of the λ-norm, 1/s.
 pub const DEFAULT_RHO: f64 = 1.0;
@@ -152,12 +166,31 @@ pub enum Value {
     Boolean(bool),
 }
 
-/// One parameter (or input start value) assignment.
+/// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setting {
     pub name: String,
     pub value_reference: u32,
+    /// The value in trial 0.
     pub value: Value,
+    /// Added once per trial, of the same type as `value`: trial k gets value + k·per_trial
+    /// (`{ base = …, per_trial = … }` in the scenario; `None`: the same in every trial).
+    pub per_trial: Option<Value>,
+}
+
+impl Setting {
+    /// The value set before trial `k` (docs/model.md §10). Integer values were checked at
+    /// validation to fit every trial of the scenario.
+    pub fn value_in_trial(&self, k: usize) -> Value {
+        match (self.value, self.per_trial) {
+            (Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
+                (i64::from(base) + k as i64 * i64::from(step))
+                    .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
+            ),
+            (Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
+            (v, _) => v,
+        }
+    }
 }
 
 /// One FMU of the scenario.
@@ -220,11 +253,31 @@ impl Record {
     }
 }
 
+/// Where the six leg errors of the metrics come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LegError {
+    /// An FMU's error outputs (e.g. the controller's, which see the measured lengths).
+    Output(Port),
+    /// reference − length, sample by sample: with the plant's noise-free `length_true`, the
+    /// true error even when the measurements are noisy (docs/model.md §10).
+    Difference { reference: Port, length: Port },
+}
+
+impl LegError {
+    /// The ports the master taps: the error, or the reference then the length.
+    pub fn ports(&self) -> Vec<&Port> {
+        match self {
+            LegError::Output(p) => vec![p],
+            LegError::Difference { reference, length } => vec![reference, length],
+        }
+    }
+}
+
 /// What the per-trial summary measures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Metrics {
     /// Six leg errors.
-    pub error: Port,
+    pub error: LegError,
     /// λ-norm weight ρ, 1/s.
     pub rho: f64,
     /// Platform pose (x, y, z, ...) for the Cartesian path error.
@@ -249,10 +302,15 @@ pub struct Scenario {
     pub memory: Vec<MemoryChannel>,
     pub record: Record,
     pub metrics: Option<Metrics>,
+    /// `memory_limit_mib`: the most memory a campaign may take, MiB (default: the
+    /// campaign's default, 4096).
+    pub memory_limit_mib: Option<u64>,
+    /// Line of `stop_time`, which with `step_size` sets the campaign's size (for messages).
+    pub stop_time_line: Option<usize>,
 }
 
 /// Line (1-based) of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
+pub(crate) fn line_of(text: &str, offset: usize) -> usize {
     text.as_bytes()[..offset.min(text.len())]
         .iter()
         .filter(|&&b| b == b'\n')
@@ -325,17 +383,28 @@ impl Scenario {
             );
         }
         let steps_f = (stop - raw.start_time) / h;
+        // Beyond 2^53 steps t_n = t_0 + n·h no longer tells samples apart.
+        if !(steps_f.is_finite() && steps_f <= MAX_STEPS) {
+            return cx.err(
+                span_stop.clone(),
+                format!(
+                    "(stop_time − start_time) / step_size = {steps_f:e} steps is more than \
+                     {MAX_STEPS:e}; enlarge step_size or shorten the trial"
+                ),
+            );
+        }
         let steps = steps_f.round() as usize;
         if (steps_f - steps as f64).abs() > 1e-6 * steps_f.max(1.0) {
             return cx.err(
-                span_stop,
+                span_stop.clone(),
                 format!(
                     "stop_time − start_time = {} is not a whole number of steps of {h} s",
                     stop - raw.start_time
                 ),
             );
         }
-        if *raw.trials.get_ref() == 0 {
+        let trials = *raw.trials.get_ref();
+        if trials == 0 {
             return cx.err(raw.trials.span(), "trials must be at least 1");
         }
         if raw.fmus.is_empty() {
@@ -362,7 +431,7 @@ impl Scenario {
             };
             let mut settings = Vec::new();
             for (key, value) in &f.parameters {
-                settings.extend(parameter_settings(&cx, &md, key, value)?);
+                settings.extend(parameter_settings(&cx, &md, key, value, trials)?);
             }
             fmus.push(FmuSpec {
                 name: name.clone(),
@@ -420,9 +489,20 @@ impl Scenario {
                 }
             }
         }
-        let mut ports = Vec::new();
+        let mut ports: Vec<Port> = Vec::new();
+        let mut recorded: BTreeMap<String, String> = BTreeMap::new();
         for r in &raw.record.variables {
             let p = resolve(r, "record")?;
+            // A variable listed twice would give two CSV columns of one name: refused, so
+            // the scenario says exactly what each column is.
+            for name in &p.names {
+                if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+                    return cx.err(
+                        r.span(),
+                        format!("record: {name:?} is listed twice (already recorded by {by:?})"),
+                    );
+                }
+            }
             if p.var_type != VarType::Real {
                 return cx.err(
                     r.span(),
@@ -441,7 +521,6 @@ impl Scenario {
                 "record.interval must be at least 1",
             );
         }
-        let trials = *raw.trials.get_ref();
         let rec_trials = match &raw.record.trials {
             None => None,
             Some(t) => {
@@ -459,17 +538,35 @@ impl Scenario {
         };
         let metrics = match &raw.metrics {
             None => None,
-            Some(m) => {
-                let error = resolve(&m.error, "metrics.error")?;
-                if error.names.len() != 6 || error.var_type != VarType::Real {
-                    return cx.err(
-                        m.error.span(),
-                        format!(
-                            "metrics.error {:?} must be six Real variables (one per leg)",
-                            m.error.get_ref()
-                        ),
-                    );
-                }
+            Some(spanned) => {
+                let m = spanned.get_ref();
+                let six = |r: &Spanned<String>, what: &str| {
+                    let port = resolve(r, what)?;
+                    if port.names.len() != 6 || port.var_type != VarType::Real {
+                        return cx.err(
+                            r.span(),
+                            format!(
+                                "{what} {:?} must be six Real variables (one per leg)",
+                                r.get_ref()
+                            ),
+                        );
+                    }
+                    Ok(port)
+                };
+                let error = match (&m.error, &m.reference, &m.length) {
+                    (Some(e), None, None) => LegError::Output(six(e, "metrics.error")?),
+                    (None, Some(r), Some(l)) => LegError::Difference {
+                        reference: six(r, "metrics.reference")?,
+                        length: six(l, "metrics.length")?,
+                    },
+                    _ => {
+                        return cx.err(
+                            spanned.span(),
+                            "[metrics] needs either error = \"fmu.error\" or both reference = \"fmu.length_ref\" \
+                             and length = \"fmu.length_true\" (the true error reference − length), not a mix",
+                        );
+                    }
+                };
                 let rho = *m.rho.get_ref();
                 if !(rho.is_finite() && rho >= 0.0) {
                     return cx.err(
@@ -492,7 +589,7 @@ impl Scenario {
                     Some(t) => Some(parse_trajectory(&cx, t)?),
                 };
                 if pose.is_some() != trajectory.is_some() {
-                    return cx.err(m.error.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
+                    return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
                 }
                 Some(Metrics {
                     error,
@@ -518,6 +615,8 @@ impl Scenario {
                 trials: rec_trials,
             },
             metrics,
+            memory_limit_mib: raw.memory_limit_mib.as_ref().map(|m| *m.get_ref()),
+            stop_time_line: (span_stop.end > 0).then(|| line_of(text, span_stop.start)),
         })
     }
 
@@ -827,6 +926,7 @@ fn parameter_settings(
     md: &ModelDescription,
     key: &Spanned<String>,
     value: &Spanned<toml::Value>,
+    trials: usize,
 ) -> Result<Vec<Setting>, ScenarioError> {
     let name = key.get_ref();
     let vars = scalars(md, name);
@@ -870,6 +970,16 @@ fn parameter_settings(
                 format!("{:?} expects {expected}, got {x}", v.name),
             )
         };
+        if let toml::Value::Table(table) = x {
+            let (base, step) = per_trial_values(cx, v, value.span(), table, trials)?;
+            out.push(Setting {
+                name: v.name.clone(),
+                value_reference: v.value_reference,
+                value: base,
+                per_trial: Some(step),
+            });
+            continue;
+        }
         let parsed = match (&v.kind, x) {
             (VariableKind::Real { .. }, toml::Value::Float(f)) => Value::Real(*f),
             (VariableKind::Real { .. }, toml::Value::Integer(i)) => Value::Real(*i as f64),
@@ -918,13 +1028,177 @@ fn parameter_settings(
                 return bad("no value: String parameters are not supported");
             }
         };
+        if let Err(message) = check_value(md, v, &parsed) {
+            return cx.err(value.span(), message);
+        }
         out.push(Setting {
             name: v.name.clone(),
             value_reference: v.value_reference,
             value: parsed,
+            per_trial: None,
         });
     }
     Ok(out)
+}
+
+/// The `min` and `max` that bound `var`: its own attributes, else those of its declared type.
+pub fn declared_range(md: &ModelDescription, var: &ScalarVariable) -> (Option<f64>, Option<f64>) {
+    let declared = |name: Option<&str>| name.and_then(|n| md.simple_type(n)).map(|t| &t.kind);
+    match &var.kind {
+        VariableKind::Real {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Real { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin), max.or(tmax))
+        }
+        VariableKind::Integer {
+            declared_type,
+            min,
+            max,
+            ..
+        } => {
+            let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                Some(SimpleTypeKind::Integer { min, max, .. }) => (*min, *max),
+                _ => (None, None),
+            };
+            (min.or(tmin).map(f64::from), max.or(tmax).map(f64::from))
+        }
+        // The items bound an enumeration type; a variable may narrow them.
+        VariableKind::Enumeration { min, max, .. } => (min.map(f64::from), max.map(f64::from)),
+        VariableKind::Boolean { .. } | VariableKind::String { .. } => (None, None),
+    }
+}
+
+/// Checks a value against what the model description allows for `var`: a finite number
+/// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
+/// an error the FMU may only report later, without the scenario's line).
+pub fn check_value(
+    md: &ModelDescription,
+    var: &ScalarVariable,
+    value: &Value,
+) -> Result<(), String> {
+    let x = match *value {
+        Value::Real(x) => x,
+        Value::Integer(n) => f64::from(n),
+        Value::Boolean(_) => return Ok(()),
+    };
+    let name = &var.name;
+    if !x.is_finite() {
+        return Err(format!("{name:?} = {x} is not a finite number"));
+    }
+    let (min, max) = declared_range(md, var);
+    let range = format!(
+        "[{}, {}]",
+        min.map_or("-inf".to_owned(), |m| m.to_string()),
+        max.map_or("inf".to_owned(), |m| m.to_string())
+    );
+    if let Some(m) = min.filter(|&m| x < m) {
+        return Err(format!(
+            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
+        ));
+    }
+    if let Some(m) = max.filter(|&m| x > m) {
+        return Err(format!(
+            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
+        ));
+    }
+    Ok(())
+}
+
+/// A per-trial value `{ base = B, per_trial = S }` of a Real or Integer variable: B in
+/// trial 0, B + k·S in trial k. Every trial's value must fit the variable's type and its
+/// declared min/max, checked here so that a campaign never fails at trial 37.
+fn per_trial_values(
+    cx: &Ctx<'_>,
+    v: &fmi2::md::ScalarVariable,
+    span: std::ops::Range<usize>,
+    table: &toml::Table,
+    trials: usize,
+) -> Result<(Value, Value), ScenarioError> {
+    let name = &v.name;
+    if let Some(k) = table
+        .keys()
+        .find(|k| !matches!(k.as_str(), "base" | "per_trial"))
+    {
+        return cx.err(
+            span,
+            format!(
+                "{name:?}: unknown key {k:?} in a per-trial value (expected base and per_trial)"
+            ),
+        );
+    }
+    let (Some(base), Some(step)) = (table.get("base"), table.get("per_trial")) else {
+        return cx.err(
+            span,
+            format!("{name:?}: a per-trial value needs both base and per_trial, e.g. {{ base = 1000, per_trial = 1 }}"),
+        );
+    };
+    let last = (trials - 1) as i64;
+    match &v.kind {
+        VariableKind::Integer { min, max, .. } => {
+            let (toml::Value::Integer(b), toml::Value::Integer(s)) = (base, step) else {
+                return cx.err(
+                    span,
+                    format!("{name:?} is an Integer: base and per_trial must be integers"),
+                );
+            };
+            let lo = i64::from(min.unwrap_or(i32::MIN));
+            let hi = i64::from(max.unwrap_or(i32::MAX));
+            for (k, x) in [
+                (0, Some(*b)),
+                (last, s.checked_mul(last).and_then(|d| b.checked_add(d))),
+            ] {
+                match x {
+                    Some(x) if (lo..=hi).contains(&x) => {}
+                    _ => {
+                        return cx.err(
+                            span,
+                            format!(
+                                "{name:?} = {b} + trial·{s} leaves [{lo}, {hi}] in trial {k} of 0..{last}"
+                            ),
+                        );
+                    }
+                }
+            }
+            Ok((Value::Integer(*b as i32), Value::Integer(*s as i32)))
+        }
+        VariableKind::Real { min, max, .. } => {
+            let number = |x: &toml::Value| match x {
+                toml::Value::Float(f) => Some(*f),
+                toml::Value::Integer(i) => Some(*i as f64),
+                _ => None,
+            };
+            let (Some(b), Some(s)) = (number(base), number(step)) else {
+                return cx.err(
+                    span,
+                    format!("{name:?} is Real: base and per_trial must be numbers"),
+                );
+            };
+            let lo = min.unwrap_or(f64::NEG_INFINITY);
+            let hi = max.unwrap_or(f64::INFINITY);
+            for (k, x) in [(0, b), (last, b + last as f64 * s)] {
+                if !(x.is_finite() && (lo..=hi).contains(&x)) {
+                    return cx.err(
+                        span,
+                        format!(
+                            "{name:?} = {b} + trial·{s} is {x} in trial {k}, outside [{lo}, {hi}]"
+                        ),
+                    );
+                }
+            }
+            Ok((Value::Real(b), Value::Real(s)))
+        }
+        _ => cx.err(
+            span,
+            format!("{name:?}: per-trial values are for Real and Integer variables only"),
+        ),
+    }
 }
 
 #[cfg(test)]
@@ -940,6 +1214,9 @@ mod tests {
     <ScalarVariable name="ur" valueReference="2" causality="input"><Real start="0"/></ScalarVariable>
     <ScalarVariable name="yi" valueReference="1" causality="output" variability="discrete"><Integer/></ScalarVariable>
     <ScalarVariable name="ui" valueReference="2" causality="input" variability="discrete"><Integer start="0"/></ScalarVariable>
+    <ScalarVariable name="seed" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Integer start="0" min="0" max="2000"/></ScalarVariable>
+    <ScalarVariable name="sigma" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Real start="0" min="0"/></ScalarVariable>
+    <ScalarVariable name="on" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Boolean start="false"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="1"/><Unknown index="3"/></Outputs>
@@ -1032,5 +1309,81 @@ mod tests {
             assert!(err.message.contains(needle), "{body}: {err}");
             assert!(err.to_string().starts_with("s.toml:"), "{err}");
         }
+    }
+
+    /// A scenario of `trials` trials whose FMU "a" gets `parameters` (TOML lines).
+    fn with_parameters(trials: usize, parameters: &str) -> Result<Scenario, ScenarioError> {
+        let text = format!(
+            "step_size = 0.1\nstop_time = 1.0\ntrials = {trials}\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n[fmu.parameters]\n{parameters}"
+        );
+        Scenario::parse(&text, Path::new("s.toml"), |_| {
+            ModelDescription::parse(MD).map_err(|e| e.to_string())
+        })
+    }
+
+    #[test]
+    fn per_trial_values_step_once_per_trial() {
+        let sc = with_parameters(
+            5,
+            "seed = { base = 1000, per_trial = 1 }\nsigma = { base = 1e-6, per_trial = 0.5e-6 }\non = true\n",
+        )
+        .unwrap();
+        let get = |name: &str| {
+            sc.fmus[0]
+                .settings
+                .iter()
+                .find(|s| s.name == name)
+                .unwrap()
+                .clone()
+        };
+        let seeds: Vec<Value> = (0..5).map(|k| get("seed").value_in_trial(k)).collect();
+        assert_eq!(seeds, (1000..1005).map(Value::Integer).collect::<Vec<_>>());
+        assert_eq!(get("sigma").value_in_trial(0), Value::Real(1e-6));
+        assert_eq!(
+            get("sigma").value_in_trial(4),
+            Value::Real(1e-6 + 4.0 * 0.5e-6)
+        );
+        // A plain value is the same in every trial.
+        assert_eq!(get("on").per_trial, None);
+        assert_eq!(get("on").value_in_trial(3), Value::Boolean(true));
+    }
+
+    #[test]
+    fn bad_per_trial_values_name_the_line_and_the_problem() {
+        let cases = [
+            ("seed = { base = 1000 }\n", "needs both base and per_trial"),
+            (
+                "seed = { base = 1, per_trial = 1, step = 2 }\n",
+                "unknown key \"step\"",
+            ),
+            ("seed = { base = 1.5, per_trial = 1 }\n", "must be integers"),
+            // 1000 + 9·200 = 2800 exceeds the declared max 2000 in the last trial.
+            ("seed = { base = 1000, per_trial = 200 }\n", "in trial 9"),
+            (
+                "seed = { base = 5, per_trial = -1 }\n",
+                "leaves [0, 2000] in trial 9",
+            ),
+            (
+                "sigma = { base = 0.0, per_trial = -1.0 }\n",
+                "outside [0, inf]",
+            ),
+            (
+                "sigma = { base = \"x\", per_trial = 1 }\n",
+                "must be numbers",
+            ),
+            (
+                "on = { base = 1, per_trial = 1 }\n",
+                "Real and Integer variables only",
+            ),
+        ];
+        for (line, expected) in cases {
+            let err = with_parameters(10, line).unwrap_err();
+            assert_eq!(err.line, Some(8), "{line}: {err}");
+            assert!(err.message.contains(expected), "{line}: {err}");
+        }
+        // The i32 range is checked without overflow, also for huge steps.
+        let err = with_parameters(3, "seed = { base = 0, per_trial = 9223372036854775807 }\n")
+            .unwrap_err();
+        assert!(err.message.contains("in trial 2"), "{err}");
     }
 }

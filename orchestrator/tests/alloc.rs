@@ -20,8 +20,9 @@ use orchestrator::scenario::Scenario;
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
 
-/// A 2 s line under HLCS with recording at every sample and the metrics ports, with the
-/// packaged FMUs; `update` is the memory channel's update table (empty: the paper's).
+/// A 2 s line under HLCS with sensor noise seeded per trial, recording at every sample and
+/// the true-error metrics ports (reference and noise-free length), with the packaged FMUs;
+/// `update` is the memory channel's update table (empty: the paper's).
 fn scenario_toml(update: &str) -> String {
     let path = |name: &str| {
         std::fs::canonicalize(common::built_fmu(name))
@@ -46,6 +47,10 @@ learning = true
 [[fmu]]
 name = "plant"
 path = "{plant}"
+[fmu.parameters]
+length_noise_sigma = 1e-6
+velocity_noise_sigma = 1e-5
+noise_seed = {{ base = 7, per_trial = 1 }}
 
 [[connection]]
 from = "plant.length"
@@ -69,7 +74,8 @@ variables = ["controller.error", "controller.force", "controller.memory_next", "
 interval = 1
 
 [metrics]
-error = "controller.error"
+reference = "controller.length_ref"
+length = "plant.length_true"
 pose = "plant.pose"
 trajectory = {{ kind = "line", duration = 2.0, home_height = 0.5 }}
 "#,

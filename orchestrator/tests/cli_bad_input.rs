@@ -210,7 +210,8 @@ fn missing_binary() {
         dir.path(),
         &fmu,
         &format!(
-            "no binary for this platform: expected binaries/{}/ForeignOscillator.{} inside the archive",
+            "no binary for this platform ({0}): expected binaries/{0}/ForeignOscillator.{1} \
+             inside the archive; the archive has no binaries for any platform",
             fmi2::import::PLATFORM,
             fmi2::import::SHARED_LIBRARY_EXTENSION
         ),

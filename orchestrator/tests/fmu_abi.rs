@@ -1,21 +1,13 @@
 //! The packaged FMUs through the C ABI (loaded with `fmi2::import`): independence of
 //! instances, FMU-state serialization, and the errors a user meets first.
 
-use std::path::{Path, PathBuf};
+mod common;
 
 use fmi2::import::{Fmu, Instance};
 
 fn fmu(name: &str) -> Fmu {
-    let dir = std::env::var_os("CKCM_FMU_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"));
-    let path = dir.join(name);
-    assert!(
-        path.exists(),
-        "{} not found: run `cargo xtask fmu` first",
-        path.display()
-    );
-    Fmu::open(&path).unwrap()
+    let stem = name.strip_suffix(".fmu").unwrap_or(name);
+    Fmu::open(common::built_fmu(stem)).unwrap()
 }
 
 fn vr(f: &Fmu, name: &str) -> u32 {
@@ -175,7 +167,7 @@ fn non_finite_input_is_an_error_naming_the_variable() {
 fn diverging_plant_is_an_error_never_nan_outputs() {
     let plant = fmu("CkcmPlant.fmu");
     let (force, pose) = (vrs(&plant, "force"), vrs(&plant, "pose"));
-    let mut a = plant.instantiate("a", false).unwrap();
+    let mut a = plant.instantiate("a", true).unwrap();
     start(&mut a, &[]);
     // Pull legs 1-3 hard in and push 4-6 hard out: the platform is torn apart.
     let f = [-1e7, -1e7, -1e7, 1e7, 1e7, 1e7];
@@ -203,22 +195,23 @@ fn diverging_plant_is_an_error_never_nan_outputs() {
 
 #[test]
 fn invalid_parameter_is_rejected_at_initialization_by_name() {
+    // In range one by one, but together an empty stroke: refused at initialization.
     let plant = fmu("CkcmPlant.fmu");
     let mut a = plant.instantiate("a", false).unwrap();
-    a.set_real(&[vr(&plant, "platform_radius")], &[-0.27])
-        .unwrap();
+    a.set_real(&[vr(&plant, "length_min")], &[0.9]).unwrap();
+    a.set_real(&[vr(&plant, "length_max")], &[0.8]).unwrap();
     a.setup_experiment(None, 0.0, None).unwrap();
     a.enter_initialization_mode().unwrap();
     let err = a.exit_initialization_mode().unwrap_err().to_string();
-    assert!(err.contains("platform_radius"), "{err}");
+    assert!(err.contains("length_min must be below length_max"), "{err}");
+    // Out of range: refused at the set call, by name.
     let ctl = fmu("HlcsController.fmu");
     let mut c = ctl.instantiate("c", false).unwrap();
-    c.set_real(&[vr(&ctl, "model.cylinder_mass")], &[0.0])
-        .unwrap();
-    c.setup_experiment(None, 0.0, None).unwrap();
-    c.enter_initialization_mode().unwrap();
-    let err = c.exit_initialization_mode().unwrap_err().to_string();
-    assert!(err.contains("model.cylinder_mass"), "{err}");
+    let err = c
+        .set_real(&[vr(&ctl, "model.cylinder_mass")], &[0.0])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("model.cylinder_mass = 0 is outside"), "{err}");
 }
 
 #[test]

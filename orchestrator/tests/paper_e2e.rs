@@ -2,6 +2,8 @@
 //!
 //! Needs the packaged FMUs (`cargo xtask fmu`; `cargo xtask test` builds them first).
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,15 +12,11 @@ use std::time::{Duration, Instant};
 use assert_cmd::cargo::CommandCargoExt;
 
 fn fmu_dir() -> PathBuf {
-    let dir = std::env::var_os("CKCM_FMU_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"));
-    assert!(
-        dir.join("CkcmPlant.fmu").exists() && dir.join("HlcsController.fmu").exists(),
-        "packaged FMUs not found in {}: run `cargo xtask fmu` first",
-        dir.display()
-    );
-    dir
+    common::built_fmu("CkcmPlant");
+    common::built_fmu("HlcsController")
+        .parent()
+        .expect("an FMU inside a directory")
+        .to_path_buf()
 }
 
 fn orchestrator() -> Command {
@@ -57,6 +55,151 @@ fn assert_same_files(a: &BTreeMap<PathBuf, Vec<u8>>, b: &BTreeMap<PathBuf, Vec<u
     }
 }
 
+/// Parses `xml` (failing on malformed markup) and returns every element name, every
+/// attribute (name, value), and the text of every `<text>` element.
+fn parse_xml(xml: &str, what: &str) -> (Vec<String>, Vec<(String, String)>, Vec<String>) {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let (mut names, mut attrs, mut texts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut in_text: Option<String> = None;
+    loop {
+        let ev = reader.read_event().unwrap_or_else(|e| {
+            panic!(
+                "{what} is not well-formed at {}: {e}",
+                reader.error_position()
+            )
+        });
+        match ev {
+            Event::Start(e) | Event::Empty(e) => {
+                let name = e.name().as_ref().to_owned();
+                for a in e.attributes() {
+                    let a = a.unwrap_or_else(|err| panic!("{what}: bad attribute: {err}"));
+                    attrs.push((a.key.as_ref().to_owned(), a.value.into_owned()));
+                }
+                if name == "text" {
+                    in_text = Some(String::new());
+                }
+                names.push(name);
+            }
+            Event::End(e) if e.name().as_ref() == "text" => {
+                texts.push(in_text.take().unwrap_or_default().trim().to_owned());
+            }
+            Event::Text(t) => {
+                if let Some(c) = &mut in_text {
+                    c.push_str(&t.xml10_content());
+                }
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    (names, attrs, texts)
+}
+
+/// Every figure parses, and each has its own title naming its figure and letter.
+fn check_figures(dir: &Path) {
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    let mut expected = orchestrator::paper::figures::figure_files();
+    expected.sort();
+    assert_eq!(files, expected, "figure files");
+    let mut titles = std::collections::BTreeSet::new();
+    for f in &files {
+        let svg = std::fs::read_to_string(dir.join(f)).unwrap();
+        let (names, _, texts) = parse_xml(&svg, f);
+        assert_eq!(names.first().map(String::as_str), Some("svg"), "{f}");
+        let title = texts.first().cloned().unwrap_or_default();
+        let (fig, t) = if let Some(t) = f.strip_prefix("line_") {
+            ("Fig. 6", t)
+        } else if let Some(t) = f.strip_prefix("circle_") {
+            ("Fig. 7", t)
+        } else {
+            ("Fig. 8", f.as_str())
+        };
+        let letter = match t {
+            "pid_leg_errors.svg" => "a",
+            "pd_ilc_leg_errors.svg" => "b",
+            "hlcs_leg_errors.svg" => "c",
+            "path.svg" => "d",
+            "path_error.svg" => "e",
+            "spectrum.svg" => "f",
+            "forces.svg" => "g",
+            "learned_input.svg" => "h",
+            _ => "",
+        };
+        assert!(
+            title.starts_with(&format!("{fig}{letter}")),
+            "{f}: title {title:?}"
+        );
+        if f.starts_with("convergence_lambda") {
+            assert!(title.contains("ρ = "), "{f}: ρ not in the title {title:?}");
+        }
+        assert!(
+            titles.insert(title.clone()),
+            "{f}: title {title:?} used twice"
+        );
+        for t in &texts {
+            assert!(
+                !(t.starts_with("-0") && t.parse::<f64>() == Ok(0.0)),
+                "{f}: tick label {t:?}"
+            );
+        }
+    }
+}
+
+/// The HTML report is well-formed and self-contained: every figure inline, no reference to
+/// another file or the network.
+fn check_html(path: &Path) {
+    let html = std::fs::read_to_string(path).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"), "doctype");
+    let (names, attrs, texts) = parse_xml(&html, "report.html");
+    assert_eq!(names.first().map(String::as_str), Some("html"));
+    for bad in ["img", "link", "script", "iframe", "object", "embed"] {
+        assert!(!names.iter().any(|n| n == bad), "report.html has <{bad}>");
+    }
+    for (k, v) in &attrs {
+        let k = k.to_ascii_lowercase();
+        assert!(
+            !(k == "src" || k.ends_with("href")) || v.starts_with('#'),
+            "report.html refers to {v:?} ({k})"
+        );
+        assert!(!v.contains("url("), "report.html refers to {v:?}");
+    }
+    assert!(!html.contains("@import"), "report.html imports a style");
+    let svgs = names.iter().filter(|n| *n == "svg").count();
+    assert_eq!(
+        svgs,
+        orchestrator::paper::figures::figure_files().len(),
+        "inline figures"
+    );
+    assert!(
+        texts.iter().any(|t| t.starts_with("Fig. 8")),
+        "figure text inline"
+    );
+}
+
+/// The verdicts printed in report.md are the ones graded from the CSVs.
+fn check_verdicts(root: &Path) {
+    use orchestrator::paper::claims::{Tables, grade};
+    let grades = grade(&Tables::load(root).unwrap()).unwrap();
+    let report = std::fs::read_to_string(root.join("report.md")).unwrap();
+    for (i, v) in grades.verdicts.iter().enumerate() {
+        let v = v.expect("graded");
+        let heading = report
+            .lines()
+            .find(|l| l.starts_with(&format!("### {}.", i + 1)))
+            .unwrap_or_else(|| panic!("no heading for claim {}", i + 1));
+        assert!(
+            heading.ends_with(&format!("— **{}**", v.as_str())),
+            "claim {}: {heading:?} vs {v:?}",
+            i + 1
+        );
+    }
+}
+
 /// (trial, overall max) of each row of a summary.csv.
 fn max_errors(summary: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(summary).unwrap();
@@ -92,31 +235,10 @@ fn paper_study_writes_every_file_and_learning_works() {
     for f in ["report.md", "convergence.csv"] {
         assert!(root.join(f).is_file(), "{f}");
     }
+    check_figures(&root.join("figures"));
+    check_html(&root.join("report.html"));
+    check_verdicts(root);
     for t in ["line", "circle"] {
-        for (fig, title) in [
-            (
-                format!("{t}_pid_leg_errors.svg"),
-                format!("{t}: leg errors under PID"),
-            ),
-            (
-                format!("{t}_pd_ilc_leg_errors.svg"),
-                format!("{t}: leg errors under PD-type ILC"),
-            ),
-            (
-                format!("{t}_hlcs_leg_errors.svg"),
-                format!("{t}: leg errors under HLCS"),
-            ),
-            (
-                format!("{t}_path.svg"),
-                format!("{t}: desired vs actual path"),
-            ),
-        ] {
-            let svg = std::fs::read_to_string(root.join("figures").join(&fig)).unwrap();
-            assert!(
-                svg.starts_with("<svg") && svg.contains(&title),
-                "{fig} lacks {title:?}"
-            );
-        }
         for s in ["pid", "pd_ilc", "hlcs"] {
             let case = root.join(t).join(s);
             for f in [
@@ -131,6 +253,16 @@ fn paper_study_writes_every_file_and_learning_works() {
                 assert!(
                     case.join(format!("trials/trial_{k:03}.csv")).is_file(),
                     "{t}/{s} trial {k}"
+                );
+            }
+            if s != "pid" {
+                let rec = std::fs::read_to_string(case.join("trials/trial_004.csv")).unwrap();
+                assert!(
+                    rec.lines()
+                        .next()
+                        .unwrap()
+                        .contains("controller.memory_next[6]"),
+                    "{t}/{s}: the learned input is recorded"
                 );
             }
             let e = max_errors(&case.join("summary.csv"));
@@ -151,17 +283,18 @@ fn paper_study_writes_every_file_and_learning_works() {
             }
         }
     }
-    for f in [
-        "convergence_max.svg",
-        "convergence_lambda.svg",
-        "convergence_rms.svg",
-    ] {
-        assert!(root.join("figures").join(f).is_file(), "{f}");
-    }
     let report = std::fs::read_to_string(root.join("report.md")).unwrap();
-    for claim in ["**1.", "**2.", "**3.", "**4.", "Known effect"] {
+    for claim in [
+        "### 1.",
+        "### 2.",
+        "### 3.",
+        "### 4.",
+        "Known effect",
+        "Grading rule",
+    ] {
         assert!(report.contains(claim), "report lacks {claim}");
     }
+    assert!(!report.contains("{{"), "unfilled placeholder in report.md");
     // Campaigns run in parallel by default; one at a time gives the very same files.
     let serial = tempfile::tempdir().unwrap();
     let status = orchestrator()
@@ -286,6 +419,17 @@ fn killed_and_resumed_campaign_equals_uninterrupted() {
     let tmp = tempfile::tempdir().unwrap();
     let trials = 60;
     let scenario = line_scenario(tmp.path(), trials);
+    // With the paper's learning gains this fast 2 s line diverges after about 30 trials and
+    // the plant stops at its workspace limits (the platform reaches the base plane in trial
+    // 35); halved gains keep all 60 trials converging, so the campaign runs to the end.
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let text = text.replacen(
+        "duration = 2.0\n[[fmu]]",
+        "duration = 2.0\nphi = 20000.0\ngamma = 400.0\n[[fmu]]",
+        1,
+    );
+    assert!(text.contains("phi = 20000.0"));
+    std::fs::write(&scenario, text).unwrap();
     let whole = tmp.path().join("whole");
     let killed = tmp.path().join("killed");
     assert!(

@@ -19,6 +19,61 @@ from master import default_fmu_dir  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 
+#: What the packaged FMUs are built from (as `orchestrator/tests/common/mod.rs` lists them).
+FMU_SOURCES = [
+    "Cargo.lock",
+    "ckcm/Cargo.toml",
+    "ckcm/src",
+    "fmi2/Cargo.toml",
+    "fmi2/build.rs",
+    "fmi2/src",
+    "fmu-plant/Cargo.toml",
+    "fmu-plant/build.rs",
+    "fmu-plant/src",
+    "fmu-controller/Cargo.toml",
+    "fmu-controller/build.rs",
+    "fmu-controller/src",
+    "modelDescription",
+    "xtask/src",
+]
+#: What the orchestrator binary is built from.
+ORCHESTRATOR_SOURCES = [
+    "Cargo.lock",
+    "ckcm/Cargo.toml",
+    "ckcm/src",
+    "fmi2/Cargo.toml",
+    "fmi2/build.rs",
+    "fmi2/src",
+    "orchestrator/Cargo.toml",
+    "orchestrator/src",
+]
+
+
+def newest_source(paths: list[str]) -> tuple[float, Path] | None:
+    """The newest modification time among the files under `paths` (relative to the
+    repository; missing ones skipped), with the file."""
+    newest: tuple[float, Path] | None = None
+    for p in paths:
+        root = REPO / p
+        files = [root] if root.is_file() else [f for f in root.rglob("*") if f.is_file()]
+        for f in files:
+            mtime = f.stat().st_mtime
+            if newest is None or mtime > newest[0]:
+                newest = (mtime, f)
+    return newest
+
+
+def fail_if_stale(artifact: Path, sources: list[str], rebuild: str) -> None:
+    """Fails loudly when `artifact` is older than a file it is built from: a stale FMU or
+    binary would test old code and pass."""
+    newest = newest_source(sources)
+    if newest is not None and artifact.stat().st_mtime < newest[0]:
+        pytest.fail(
+            f"{artifact} is older than {newest[1]}: it was built from other sources; "
+            f"run `{rebuild}`",
+            pytrace=False,
+        )
+
 
 @pytest.fixture(scope="session")
 def fmu_dir() -> Path:
@@ -33,6 +88,8 @@ def fmu_dir() -> Path:
             "or set CKCM_FMU_DIR",
             pytrace=False,
         )
+    for name in ("CkcmPlant.fmu", "HlcsController.fmu"):
+        fail_if_stale(directory / name, FMU_SOURCES, "cargo xtask fmu")
     return directory
 
 
@@ -57,4 +114,5 @@ def orchestrator() -> Path:
             "`cargo build --release -p orchestrator` or set CKCM_ORCHESTRATOR",
             pytrace=False,
         )
+    fail_if_stale(path, ORCHESTRATOR_SOURCES, "cargo build --release -p orchestrator")
     return path

@@ -181,6 +181,7 @@ class Trial:
     force: np.ndarray
     memory_next: np.ndarray
     error: np.ndarray
+    pose: np.ndarray
     #: u_{k+1}: the memory this trial leaves for the next, after the update.
     memory: np.ndarray
 
@@ -218,6 +219,7 @@ class HlcsMaster:
         self.c_out = self.controller.vrs(legs("force") + legs("memory_next") + legs("error"))
         self.p_in = self.plant.vrs(legs("force"))
         self.p_out = self.plant.vrs(legs("length") + legs("velocity"))
+        self.p_pose = self.plant.vrs(legs("pose"))
         # The iteration memory u_k(t_n): row n of the read buffer feeds sample n.
         self.memory = np.zeros((self.steps, LEGS))
 
@@ -229,7 +231,10 @@ class HlcsMaster:
         """Runs one trial from the initial state with the current memory, then makes the
         memory it wrote the memory of the next trial."""
         n_steps, h = self.steps, self.h
-        rows = {k: np.empty((n_steps, LEGS)) for k in ("length", "velocity", "force", "error")}
+        rows = {
+            k: np.empty((n_steps, LEGS))
+            for k in ("length", "velocity", "force", "error", "pose")
+        }
         write = np.empty((n_steps, LEGS))  # u_{k+1}(t_n), the write buffer
 
         # Both FMUs start every trial from the same initial state.
@@ -242,6 +247,7 @@ class HlcsMaster:
             t = self.time(n)
             rows["length"][n] = y[:LEGS]
             rows["velocity"][n] = y[LEGS:]
+            rows["pose"][n] = self.plant.fmu.getReal(self.p_pose)
 
             # (1) Controller inputs: plant outputs at t_n and u_k(t_n) from the read buffer.
             self.controller.fmu.setReal(self.c_in, [*y, *self.memory[n]])

@@ -1,5 +1,5 @@
 """The fmpy master and the Rust orchestrator run the same three HLCS trials and must agree
-sample for sample; under fmpy alone, learning must cut the error."""
+bit for bit on every recorded signal; under fmpy alone, learning must cut the error."""
 
 from __future__ import annotations
 
@@ -16,9 +16,17 @@ from master import Trial, legs, run_trials
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 TRAJECTORIES = ["line", "circle"]
 TRIALS = 3
-#: Relative agreement demanded of every sample; the absolute floor only matters for the
-#: exact zeros of memory_next at rest.
-RTOL, ATOL = 1e-9, 1e-12
+#: Every signal the two masters record, compared with exact equality: both call the same
+#: FMU binaries with the same inputs in the same order, and the CSV keeps each double's
+#: shortest round-trip spelling, so any difference is a difference in the masters.
+SIGNALS = [
+    ("force", "controller"),
+    ("error", "controller"),
+    ("memory_next", "controller"),
+    ("length", "plant"),
+    ("velocity", "plant"),
+    ("pose", "plant"),
+]
 
 
 def scenario_with_absolute_paths(trajectory: str, fmu_dir: Path, out: Path) -> Path:
@@ -77,25 +85,19 @@ def test_every_sample_matches_the_orchestrator(
     for k, trial in enumerate(fmpy_trials):
         header, data = read_csv(orchestrator_out / "trials" / f"trial_{k:03}.csv")
         assert header[0] == "time"
-        assert data.shape == (len(trial.time), 1 + 3 * 6), f"trial {k}: rows or columns"
+        width = 1 + len(SIGNALS) * 6
+        assert data.shape == (len(trial.time), width), f"trial {k}: rows or columns"
         # Row n is sample n at t_n = n·h in both (same formula, so equal to the bit).
         np.testing.assert_array_equal(data[:, 0], trial.time, err_msg=f"trial {k}: time")
         columns = {name: i for i, name in enumerate(header)}
-        for ours, fmu, var in [
-            (trial.force, "controller", "force"),
-            (trial.length, "plant", "length"),
-            (trial.memory_next, "controller", "memory_next"),
-        ]:
+        for var, fmu in SIGNALS:
+            ours = getattr(trial, var)
             theirs = data[:, [columns[f"{fmu}.{n}"] for n in legs(var)]]
-            np.testing.assert_allclose(
-                ours, theirs, rtol=RTOL, atol=ATOL, err_msg=f"trial {k}: {fmu}.{var}"
-            )
+            np.testing.assert_array_equal(ours, theirs, err_msg=f"trial {k}: {fmu}.{var}")
     # The memory the orchestrator saved for a next trial is what fmpy would carry over.
     last = TRIALS - 1
     _, memory = read_csv(orchestrator_out / "memory.csv")
-    np.testing.assert_allclose(
-        fmpy_trials[last].memory_next, memory[:, 1:], rtol=RTOL, atol=ATOL, err_msg="memory"
-    )
+    np.testing.assert_array_equal(fmpy_trials[last].memory_next, memory[:, 1:], err_msg="memory")
 
 
 def test_learning_cuts_the_error_fivefold_by_trial_2(fmpy_trials: list[Trial]) -> None:

@@ -1,16 +1,20 @@
 //! Project automation, so a fresh machine needs only `cargo`:
 //!
-//! - `cargo xtask fmu`: build the two FMU binaries in release mode and package
-//!   `target/fmu/CkcmPlant.fmu` and `target/fmu/HlcsController.fmu`.
+//! - `cargo xtask fmu`: build the two FMU binaries in release mode, for Linux and (cross,
+//!   with mingw-w64) for win64, and package `target/fmu/CkcmPlant.fmu` and
+//!   `target/fmu/HlcsController.fmu`. Installs the Rust target and mingw-w64 if missing.
 //! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
-//! - `cargo xtask test`: check formatting and clippy, package the FMUs, run every Rust
-//!   test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the fmpy tests.
+//! - `cargo xtask test`: check formatting and clippy, package the FMUs, cross-build
+//!   `orchestrator.exe` and prepare Wine (installed if missing) for the win64 tests, run
+//!   every Rust test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the
+//!   fmpy tests.
 #![deny(unsafe_code)]
 
 mod docs;
 mod package;
 mod python;
+mod win64;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -43,8 +47,9 @@ fn main() -> Result<()> {
                     "--",
                     "paper",
                 ])
+                .env("CARGO_TARGET_DIR", target_dir(&root))
                 .arg("--fmu-dir")
-                .arg(root.join("target/fmu"))
+                .arg(target_dir(&root).join("fmu"))
                 .args(&args[1..]))?;
         }
         Some("test") => {
@@ -52,20 +57,26 @@ fn main() -> Result<()> {
             run(Command::new(cargo())
                 .current_dir(&root)
                 .args(["fmt", "--all", "--", "--check"]))?;
-            run(Command::new(cargo()).current_dir(&root).args([
-                "clippy",
-                "--workspace",
-                "--all-targets",
-                "--quiet",
-                "--",
-                "-D",
-                "warnings",
-            ]))?;
+            run(Command::new(cargo())
+                .current_dir(&root)
+                .env("CARGO_TARGET_DIR", target_dir(&root))
+                .args([
+                    "clippy",
+                    "--workspace",
+                    "--all-targets",
+                    "--quiet",
+                    "--",
+                    "-D",
+                    "warnings",
+                ]))?;
             package::build_fmus(&root)?;
+            let wine_env = win64::prepare_wine(&root)?;
             run(Command::new(cargo())
                 .current_dir(&root)
                 .args(["test", "--workspace", "--release"])
-                .env("CKCM_FMU_DIR", root.join("target/fmu")))?;
+                .env("CARGO_TARGET_DIR", target_dir(&root))
+                .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
+                .envs(wine_env))?;
             python::run_pytest(&root)?;
         }
         _ => bail!(
@@ -84,6 +95,19 @@ fn workspace_root() -> PathBuf {
         .parent()
         .expect("xtask lives in the workspace")
         .to_path_buf()
+}
+
+/// Cargo's target directory: `$CARGO_TARGET_DIR` when set (relative to the directory
+/// `cargo xtask` was started in, as cargo reads it), else `<workspace>/target`. Builds,
+/// packaged FMUs and the binaries the tests run all live here, so with the variable set
+/// nothing stale from `<workspace>/target` is packaged or tested.
+pub fn target_dir(root: &Path) -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR").filter(|d| !d.is_empty()) {
+        Some(dir) => std::env::current_dir()
+            .map(|cwd| cwd.join(&dir))
+            .unwrap_or_else(|_| PathBuf::from(dir)),
+        None => root.join("target"),
+    }
 }
 
 /// The cargo that runs us, so toolchain overrides carry over.

@@ -5,7 +5,7 @@ use std::process::Command;
 
 use anyhow::{Result, bail};
 
-use crate::run;
+use crate::{run, target_dir};
 
 /// Creates `.venv` (if needed) from `tests/python/requirements.txt` and runs pytest on
 /// `tests/python`. pytest's exit code 5 ("no tests collected") is a failure here.
@@ -28,10 +28,10 @@ pub fn run_pytest(root: &Path) -> Result<()> {
     let status = Command::new(&python)
         .current_dir(root)
         .args(["-m", "pytest", "tests/python", "-ra"])
-        .env("CKCM_FMU_DIR", root.join("target/fmu"))
+        .env("CKCM_FMU_DIR", target_dir(root).join("fmu"))
         .env(
             "CKCM_ORCHESTRATOR",
-            root.join("target/release/orchestrator"),
+            target_dir(root).join("release/orchestrator"),
         )
         .status()?;
     match status.code() {

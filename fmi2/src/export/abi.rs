@@ -436,10 +436,13 @@ unsafe fn get_values<M: Model, T>(
 }
 
 /// Shared body of the typed setters: every value reference is checked (declared, right
-/// type, settable in this state) before the first value is written.
+/// type, settable in this state) and every value against the variable's declared
+/// `min`/`max` (`numeric` gives the value as a number; `None` for Booleans) before the
+/// first value is written, so a refused call changes nothing.
 ///
 /// # Safety
 /// See the module's safety contract.
+#[allow(clippy::too_many_arguments)] // the C signature's four plus what selects the type
 unsafe fn set_values<M: Model, T: Copy>(
     c: Fmi2Component,
     function: Function,
@@ -447,6 +450,7 @@ unsafe fn set_values<M: Model, T: Copy>(
     vr: *const Fmi2ValueReference,
     nvr: usize,
     value: *const T,
+    numeric: fn(T) -> Option<f64>,
     write: impl Fn(&mut M, u32, T) -> super::ModelResult<()>,
 ) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
@@ -454,9 +458,12 @@ unsafe fn set_values<M: Model, T: Copy>(
         let vrs = unsafe { input(vr, nvr, "vr[]") }?;
         // SAFETY: NULL or valid for `nvr` elements (module contract).
         let values = unsafe { input(value, nvr, "value[]") }?;
-        for &r in vrs {
+        for (&r, &v) in vrs.iter().zip(values) {
             let spec = inst.lookup(function, access, r)?;
             inst.check_settable(spec)?;
+            if let Some(x) = numeric(v) {
+                spec.check_range(x).map_err(Failure::error)?;
+            }
         }
         if nvr > 0 {
             inst.glue.dirty = true;
@@ -598,6 +605,7 @@ pub unsafe fn set_real<M: Model>(
             vr,
             nvr,
             value,
+            Some,
             M::set_real,
         )
     }
@@ -622,6 +630,7 @@ pub unsafe fn set_integer<M: Model>(
             vr,
             nvr,
             value,
+            |x| Some(f64::from(x)),
             M::set_integer,
         )
     }
@@ -647,6 +656,7 @@ pub unsafe fn set_boolean<M: Model>(
             vr,
             nvr,
             value,
+            |_| None,
             write,
         )
     }
@@ -1089,24 +1099,24 @@ pub unsafe fn get_boolean_status<M: Model>(
     unsafe { guard(c, Function::GetBooleanStatus, body) }
 }
 
-/// fmi2GetStringStatus: not supported (its only kind, fmi2PendingStatus, needs
-/// asynchronous steps).
+/// fmi2GetStringStatus: FMI 2.0's only String kind, fmi2PendingStatus, needs asynchronous
+/// steps, which this glue never runs, so every defined kind → fmi2Discard (as
+/// fmi2GetIntegerStatus does): the status is not available, the instance stays usable.
 ///
 /// # Safety
-/// See the module's safety contract (no pointer is dereferenced).
+/// See the module's safety contract.
 pub unsafe fn get_string_status<M: Model>(
     c: Fmi2Component,
-    _kind: Fmi2StatusKind,
-    _value: *mut Fmi2String,
+    kind: Fmi2StatusKind,
+    value: *mut Fmi2String,
 ) -> Fmi2Status {
+    let body = |_: &mut Instance<M>| {
+        // SAFETY: NULL or valid for writing one value (module contract).
+        unsafe { out_ref(value, "value") }?;
+        unavailable_status(Function::GetStringStatus, kind)
+    };
     // SAFETY: `c` satisfies the module contract.
-    unsafe {
-        unsupported::<M>(
-            c,
-            Function::GetStringStatus,
-            "no asynchronous steps, so no pending status",
-        )
-    }
+    unsafe { guard(c, Function::GetStringStatus, body) }
 }
 
 /// The FMI state of an instance, for diagnostics and tests (`None` for NULL or a

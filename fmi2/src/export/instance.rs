@@ -539,8 +539,10 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    /// fmi2ExitInitializationMode: always runs `initialize(start_time)`.
+    /// fmi2ExitInitializationMode: checks every declared range (values restored from an
+    /// FMU state never went through a set call), then always runs `initialize(start_time)`.
     pub(crate) fn exit_initialization_mode(&mut self) -> Outcome {
+        super::model::check_ranges(&self.model).map_err(Failure::error)?;
         self.model.initialize(self.glue.start_time)?;
         self.glue.dirty = false;
         self.glue.time = self.glue.start_time;

@@ -21,6 +21,8 @@ mod state;
 pub mod values;
 
 pub use instance::LOG_CATEGORIES;
-pub use model::{Causality, Model, ModelError, ModelResult, VarSpec, VarType, Variability};
+pub use model::{
+    Causality, Model, ModelError, ModelResult, VarSpec, VarType, Variability, check_ranges,
+};
 pub use snapshot::{SERIALIZED_MAGIC, SERIALIZED_VERSION};
 pub use state::{FmiState, Function};

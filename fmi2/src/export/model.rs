@@ -48,6 +48,51 @@ pub struct VarSpec {
     pub var_type: VarType,
     pub causality: Causality,
     pub variability: Variability,
+    /// Smallest allowed value (`min` of the model description, for Real, Integer and
+    /// Enumeration); the glue refuses anything below it on set and at initialization.
+    pub min: Option<f64>,
+    /// Largest allowed value (`max`), enforced like `min`.
+    pub max: Option<f64>,
+}
+
+/// The first variable of `M` whose current value lies outside its declared range, as the
+/// message of [`VarSpec::check_range`]. The glue calls it where values arrive without a
+/// set call: at fmi2ExitInitializationMode and on fmi2DeSerializeFMUstate.
+pub fn check_ranges<M: Model>(model: &M) -> Result<(), String> {
+    for spec in M::VARIABLES {
+        let value = match spec.var_type {
+            VarType::Real => model.get_real(spec.value_reference),
+            VarType::Integer | VarType::Enumeration => {
+                f64::from(model.get_integer(spec.value_reference))
+            }
+            VarType::Boolean | VarType::String => continue,
+        };
+        spec.check_range(value)?;
+    }
+    Ok(())
+}
+
+impl VarSpec {
+    /// Checks `value` against this variable's declared range; NaN is never inside a
+    /// declared range. The message names the variable, the value and the range.
+    pub fn check_range(&self, value: f64) -> Result<(), String> {
+        if self.min.is_none() && self.max.is_none() {
+            return Ok(());
+        }
+        let below = self.min.is_some_and(|lo| value < lo);
+        let above = self.max.is_some_and(|hi| value > hi);
+        if value.is_nan() || below || above {
+            let bound =
+                |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
+            return Err(format!(
+                "{} = {value} is outside its range [{}, {}]",
+                self.name,
+                bound(self.min, "-inf"),
+                bound(self.max, "inf")
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// A model-level failure. The glue logs `message` (prefixed with the function name

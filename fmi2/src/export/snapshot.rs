@@ -1,6 +1,6 @@
 //! FMU-state snapshots (fmi2GetFMUstate & co.) and their serialized byte format.
 //!
-//! # Serialized format, version 1
+//! # Serialized format, version 2
 //!
 //! Pointer-free and self-identifying, so a state saved by one process can be restored in
 //! another (same FMU binary or a rebuild of the same model). All integers and floats are
@@ -9,7 +9,7 @@
 //! | offset        | size | field                                                        |
 //! |---------------|------|--------------------------------------------------------------|
 //! | 0             | 8    | magic `b"FMI2STAT"`                                          |
-//! | 8             | 4    | format version, `u32` = 1                                    |
+//! | 8             | 4    | format version, `u32` = 2                                    |
 //! | 12            | 4    | `n`, `u32`                                                   |
 //! | 16            | n    | model identifier                                             |
 //! | 16+n          | 4    | `g`, `u32`                                                   |
@@ -20,18 +20,25 @@
 //! | 32+n+g        | 40   | `f64`s: start time, stop time, tolerance, FMU time, first step size (0 when undefined) |
 //! | 72+n+g        | 8    | `p`, model payload length, `u64`                             |
 //! | 80+n+g        | p    | model payload written by [`Model::save`]                     |
+//! | 80+n+g+p      | 4    | CRC-32 (IEEE) of all preceding bytes, `u32`                  |
 //!
-//! The buffer must be exactly `80 + n + g + p` bytes long.
+//! The buffer must be exactly `84 + n + g + p` bytes long. Version 2 added the checksum:
+//! without it, most single-byte corruptions decoded into a "valid" state (a flipped
+//! exponent bit in a parameter or in the pose), which then stepped to NaN with fmi2OK.
+//! After the checksum, every value is still checked: finite times, declared parameter
+//! ranges (see [`check_ranges`]) and whatever the model's `restore` checks.
 
 use super::instance::{Glue, SNAPSHOT_MAGIC, Tag};
-use super::model::Model;
+use super::model::{Model, check_ranges};
 use super::state::FmiState;
 use crate::types::Status;
 
 /// Magic bytes at the start of every serialized FMU state.
 pub const SERIALIZED_MAGIC: [u8; 8] = *b"FMI2STAT";
 /// Version of the serialized format this glue writes and reads.
-pub const SERIALIZED_VERSION: u32 = 1;
+pub const SERIALIZED_VERSION: u32 = 2;
+/// Bytes of the trailing checksum.
+const CHECKSUM_LEN: usize = 4;
 
 const FLAG_STOP: u32 = 1;
 const FLAG_TOLERANCE: u32 = 1 << 1;
@@ -99,7 +106,7 @@ impl<M: Model> Snapshot<M> {
         let mut payload = Vec::new();
         self.model.save(&mut payload);
         let g = &self.glue;
-        let mut out = Vec::with_capacity(header_len::<M>() + payload.len());
+        let mut out = Vec::with_capacity(header_len::<M>() + payload.len() + CHECKSUM_LEN);
         out.extend_from_slice(&SERIALIZED_MAGIC);
         out.extend_from_slice(&SERIALIZED_VERSION.to_le_bytes());
         for s in [M::MODEL_IDENTIFIER, M::GUID] {
@@ -130,6 +137,8 @@ impl<M: Model> Snapshot<M> {
         }
         out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         out.extend_from_slice(&payload);
+        let crc = crc32fast::hash(&out);
+        out.extend_from_slice(&crc.to_le_bytes());
         out
     }
 
@@ -141,7 +150,7 @@ impl<M: Model> Snapshot<M> {
         let truncated = |needed: usize| {
             DecodeError::Invalid(format!(
                 "buffer truncated: {total} bytes, header needs {}",
-                needed.max(header)
+                needed.max(header + CHECKSUM_LEN)
             ))
         };
         if total >= 8 && bytes[..8] != SERIALIZED_MAGIC {
@@ -159,17 +168,42 @@ impl<M: Model> Snapshot<M> {
                 "unsupported format version {version}, this FMU reads version {SERIALIZED_VERSION}"
             )));
         }
-        let identifier = r.string().map_err(truncated)?;
-        let guid = r.string().map_err(truncated)?;
-        if identifier != M::MODEL_IDENTIFIER.as_bytes() || guid != M::GUID.as_bytes() {
-            return Err(DecodeError::Invalid(format!(
-                "state belongs to model '{}' with GUID '{}', but this FMU is '{}' with GUID '{}'",
-                String::from_utf8_lossy(identifier),
-                String::from_utf8_lossy(guid),
-                M::MODEL_IDENTIFIER,
-                M::GUID
-            )));
+        // The checksum before anything else is trusted: a corrupted length or state code
+        // gets this message rather than a misleading one about the field it hit.
+        let sealed = split_checksum(bytes).filter(|&(_, stored, computed)| stored == computed);
+        if sealed.is_some() {
+            // Intact, so possibly another model's state (perhaps shorter than our header):
+            // named as such rather than called truncated.
+            let mut peek = Reader { bytes, pos: r.pos };
+            if let (Ok(identifier), Ok(guid)) = (peek.string(), peek.string()) {
+                if identifier != M::MODEL_IDENTIFIER.as_bytes() || guid != M::GUID.as_bytes() {
+                    return Err(DecodeError::Invalid(format!(
+                        "state belongs to model '{}' with GUID '{}', but this FMU is '{}' with GUID '{}'",
+                        String::from_utf8_lossy(identifier),
+                        String::from_utf8_lossy(guid),
+                        M::MODEL_IDENTIFIER,
+                        M::GUID
+                    )));
+                }
+            }
         }
+        if total < header + CHECKSUM_LEN {
+            return Err(truncated(header + CHECKSUM_LEN));
+        }
+        let Some((body, _, _)) = sealed else {
+            let (stored, computed) = split_checksum(bytes).map_or((0, 0), |(_, s, c)| (s, c));
+            return Err(DecodeError::Invalid(format!(
+                "checksum mismatch: the state's CRC-32 is {stored:#010x}, its bytes give \
+                 {computed:#010x}; the serialized state is corrupted or truncated"
+            )));
+        };
+        let mut r = Reader {
+            bytes: body,
+            pos: r.pos,
+        };
+        // Identifier and GUID were compared above; here they are only skipped.
+        r.string().map_err(truncated)?;
+        r.string().map_err(truncated)?;
         let (Some(state), Some(flags), Some(step_status)) = (r.u32(), r.u32(), r.u32()) else {
             return Err(truncated(header));
         };
@@ -180,7 +214,7 @@ impl<M: Model> Snapshot<M> {
         let payload_len = r.u64().ok_or_else(|| truncated(header))?;
         let expected = usize::try_from(payload_len)
             .ok()
-            .and_then(|p| p.checked_add(header))
+            .and_then(|p| p.checked_add(header + CHECKSUM_LEN))
             .ok_or_else(|| {
                 DecodeError::Invalid(format!("payload length {payload_len} is impossibly large"))
             })?;
@@ -196,9 +230,8 @@ impl<M: Model> Snapshot<M> {
         }
         let glue = decode_glue(state, flags, step_status, reals).map_err(DecodeError::Invalid)?;
         let mut model = M::new();
-        model
-            .restore(&bytes[header..])
-            .map_err(DecodeError::Model)?;
+        model.restore(&body[header..]).map_err(DecodeError::Model)?;
+        check_ranges(&model).map_err(|e| DecodeError::Invalid(format!("the state holds {e}")))?;
         Ok(Self::new(model, glue))
     }
 }
@@ -210,6 +243,14 @@ pub(crate) enum DecodeError {
     Invalid(String),
     /// The header was valid but the model rejected its payload.
     Model(super::model::ModelError),
+}
+
+/// The bytes before the trailing checksum, the stored checksum and the one computed.
+fn split_checksum(bytes: &[u8]) -> Option<(&[u8], u32, u32)> {
+    let body_len = bytes.len().checked_sub(CHECKSUM_LEN)?;
+    let (body, tail) = bytes.split_at(body_len);
+    let stored = u32::from_le_bytes(tail.try_into().ok()?);
+    Some((body, stored, crc32fast::hash(body)))
 }
 
 /// Validates the glue fields of a serialized state.

@@ -63,12 +63,16 @@ pub enum ImportError {
         problems: Vec<Problem>,
     },
     /// The binary for this platform is missing from the archive.
-    #[error("{}: no binary for this platform: expected {expected} inside the archive", .path.display())]
+    #[error("{}: no binary for this platform ({platform}): expected {expected} inside the archive; {}", .path.display(), has_platforms(.available))]
     MissingBinary {
         /// The .fmu file.
         path: PathBuf,
+        /// The platform folder looked in, e.g. `win64`.
+        platform: &'static str,
         /// The path inside the archive, e.g. `binaries/linux64/CkcmPlant.so`.
         expected: String,
+        /// The platform folders the archive does have under `binaries/`, sorted.
+        available: Vec<String>,
     },
     /// The shared library could not be loaded.
     #[error("{}: cannot load the shared library: {source}", .path.display())]
@@ -142,6 +146,15 @@ pub enum ImportError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// `the archive has binaries for linux64, win64` or says it has none.
+fn has_platforms(available: &[String]) -> String {
+    if available.is_empty() {
+        "the archive has no binaries for any platform".into()
+    } else {
+        format!("the archive has binaries for {}", available.join(", "))
+    }
 }
 
 /// Problems as an indented list, one per line.

@@ -5,14 +5,13 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use libloading::Library;
-use tempfile::TempDir;
-
+use super::extract::ExtractionDir;
 use super::functions::Functions;
 use super::instance::Instance;
 use super::{ImportError, PLATFORM, SHARED_LIBRARY_EXTENSION};
 use crate::md::ModelDescription;
 use crate::types::{FMI_VERSION, TYPES_PLATFORM};
+use libloading::Library;
 
 /// What every instance of an FMU shares. Field order is drop order: the function
 /// pointers go first, then the library is unloaded, then the unpacked files removed.
@@ -20,7 +19,7 @@ use crate::types::{FMI_VERSION, TYPES_PLATFORM};
 pub(crate) struct Loaded {
     pub(crate) functions: Functions,
     _library: Library,
-    pub(crate) dir: TempDir,
+    pub(crate) dir: ExtractionDir,
 }
 
 /// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
@@ -34,8 +33,9 @@ pub struct Fmu {
 }
 
 impl Fmu {
-    /// Opens `path`: unzips it into a temporary directory (removed when the last of the
-    /// `Fmu` and its instances is dropped), parses and validates modelDescription.xml,
+    /// Opens `path`: unzips it into a temporary directory `fmi2-import-<pid>-*` (removed
+    /// when the last of the `Fmu` and its instances is dropped; see
+    /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
     /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
     /// and resolves all 34 FMI 2.0 co-simulation functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
@@ -54,13 +54,10 @@ impl Fmu {
         if archive.index_for_name("modelDescription.xml").is_none() {
             return Err(ImportError::NoModelDescription { path });
         }
-        let dir = tempfile::Builder::new()
-            .prefix("fmi2-import-")
-            .tempdir()
-            .map_err(|source| ImportError::Io {
-                path: std::env::temp_dir(),
-                source,
-            })?;
+        let dir = ExtractionDir::new().map_err(|source| ImportError::Io {
+            path: std::env::temp_dir(),
+            source,
+        })?;
         // `extract` refuses entries that would escape the directory (zip-slip).
         archive
             .extract(dir.path())
@@ -96,7 +93,9 @@ impl Fmu {
         if !binary.is_file() {
             return Err(ImportError::MissingBinary {
                 path,
+                platform: PLATFORM,
                 expected: relative,
+                available: platforms_in(dir.path()),
             });
         }
         let resources = dir.path().join("resources");
@@ -154,6 +153,12 @@ impl Fmu {
         &self.path
     }
 
+    /// The platform folders under `binaries/` in the archive (e.g. `linux64`, `win64`),
+    /// sorted.
+    pub fn platforms(&self) -> Vec<String> {
+        platforms_in(self.loaded.dir.path())
+    }
+
     /// The directory the archive was unpacked into (removed on drop).
     pub fn unpacked_dir(&self) -> &Path {
         self.loaded.dir.path()
@@ -193,6 +198,20 @@ impl Fmu {
     }
 }
 
+/// The folders under `<unpacked>/binaries/`, sorted; none if it is missing.
+fn platforms_in(unpacked: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(unpacked.join("binaries"))
+        .map(|dir| {
+            dir.filter_map(Result::ok)
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
 /// Fails unless the binary's version string function returns `expected`.
 fn check_string(
     binary: &Path,
@@ -224,23 +243,68 @@ fn check_string(
 }
 
 /// `file:///abs/path/` with every byte outside RFC 3986's unreserved set (and `/`)
-/// percent-encoded. Hand-written: the workspace has no URL crate, and this is the
-/// whole of what fmuResourceLocation needs.
+/// percent-encoded; on Windows `file:///C:/abs/path/`. Hand-written: the workspace has no
+/// URL crate, and this is the whole of what fmuResourceLocation needs.
 pub fn file_uri(dir: &Path) -> String {
     let absolute = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
     #[cfg(unix)]
-    let bytes = std::os::unix::ffi::OsStrExt::as_bytes(absolute.as_os_str()).to_vec();
-    // Windows: `C:\x` becomes `/C:/x`, so the URI reads `file:///C:/x`.
+    let uri = unix_file_uri(std::os::unix::ffi::OsStrExt::as_bytes(absolute.as_os_str()));
     #[cfg(not(unix))]
-    let bytes = format!("/{}", absolute.to_string_lossy().replace('\\', "/")).into_bytes();
+    let uri = windows_file_uri(&absolute.to_string_lossy());
+    uri
+}
+
+/// The URI of an absolute Unix path (its bytes).
+#[cfg_attr(not(unix), allow(dead_code))]
+fn unix_file_uri(path: &[u8]) -> String {
     let mut uri = String::from("file://");
-    for b in bytes {
+    percent_encode_into(&mut uri, path);
+    finish_dir_uri(uri)
+}
+
+/// The URI of an absolute Windows path: `C:\x` becomes `file:///C:/x` (the form Windows
+/// FMI tools expect, RFC 8089 with the drive colon kept), a UNC path `\\server\share\x`
+/// becomes `file://server/share/x`. The verbatim prefixes `\\?\` and `\\?\UNC\` (from
+/// `std::fs::canonicalize`) are dropped.
+#[cfg_attr(unix, allow(dead_code))]
+fn windows_file_uri(path: &str) -> String {
+    let path = path.replace('\\', "/");
+    let path = if let Some(unc) = path.strip_prefix("//?/UNC/") {
+        format!("//{unc}")
+    } else if let Some(local) = path.strip_prefix("//?/") {
+        local.to_owned()
+    } else {
+        path
+    };
+    let mut uri = String::from("file://");
+    let bytes = path.as_bytes();
+    if let Some(unc) = path.strip_prefix("//") {
+        // The server name is the URI's authority.
+        percent_encode_into(&mut uri, unc.as_bytes());
+    } else if bytes.len() >= 2 && bytes[0].is_ascii_alphabetic() && bytes[1] == b':' {
+        uri.push('/');
+        uri.push(char::from(bytes[0]));
+        uri.push(':');
+        percent_encode_into(&mut uri, &bytes[2..]);
+    } else {
+        percent_encode_into(&mut uri, bytes);
+    }
+    finish_dir_uri(uri)
+}
+
+/// Appends `bytes`, keeping RFC 3986's unreserved characters and `/`, encoding the rest.
+fn percent_encode_into(uri: &mut String, bytes: &[u8]) {
+    for &b in bytes {
         if b.is_ascii_alphanumeric() || matches!(b, b'-' | b'.' | b'_' | b'~' | b'/') {
             uri.push(char::from(b));
         } else {
             uri.push_str(&format!("%{b:02X}"));
         }
     }
+}
+
+/// A directory URI ends with a slash.
+fn finish_dir_uri(mut uri: String) -> String {
     if !uri.ends_with('/') {
         uri.push('/');
     }
@@ -249,9 +313,31 @@ pub fn file_uri(dir: &Path) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::file_uri;
+    use super::{file_uri, windows_file_uri};
     use std::path::Path;
 
+    #[test]
+    fn windows_paths_become_drive_and_unc_uris() {
+        assert_eq!(
+            windows_file_uri(r"C:\Users\Jo Doe\AppData\Local\Temp\fmi2-import-x\resources"),
+            "file:///C:/Users/Jo%20Doe/AppData/Local/Temp/fmi2-import-x/resources/"
+        );
+        assert_eq!(windows_file_uri(r"Z:\"), "file:///Z:/");
+        assert_eq!(
+            windows_file_uri(r"\\?\D:\fmu\résumé\"),
+            "file:///D:/fmu/r%C3%A9sum%C3%A9/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\server\share\a#b"),
+            "file://server/share/a%23b/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\?\UNC\server\share\x"),
+            "file://server/share/x/"
+        );
+    }
+
+    #[cfg(unix)]
     #[test]
     fn file_uri_percent_encodes() {
         assert_eq!(

@@ -7,6 +7,7 @@
 //! the FMU logged. Real and Integer get/set never allocate on success.
 
 mod error;
+mod extract;
 mod fmu;
 mod functions;
 mod instance;
@@ -14,6 +15,7 @@ mod logger;
 mod package;
 
 pub use error::ImportError;
+pub use extract::{EXTRACTION_PREFIX, reap_stale_extraction_dirs, remove_extraction_dirs};
 pub use fmu::{Fmu, file_uri};
 pub use functions::SYMBOLS;
 pub use instance::{FmuState, Instance};

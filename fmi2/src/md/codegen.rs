@@ -66,16 +66,22 @@ pub fn codegen_rust(md: &ModelDescription) -> String {
         out,
         "/// Every scalar variable, in model-description order."
     );
+    // Bounds and starts are data copied from the XML: a value that happens to be close to
+    // a constant such as π/2 must not trip clippy in the including crate.
+    let _ = writeln!(out, "#[allow(clippy::approx_constant)]");
     let _ = writeln!(out, "pub const VARIABLES: &[::fmi2::export::VarSpec] = &[");
     for v in &md.model_variables {
+        let (min, max) = md.range_of(v);
         let _ = writeln!(
             out,
-            "    ::fmi2::export::VarSpec {{ name: {:?}, value_reference: {}, var_type: ::fmi2::export::VarType::{}, causality: ::fmi2::export::Causality::{}, variability: ::fmi2::export::Variability::{} }},",
+            "    ::fmi2::export::VarSpec {{ name: {:?}, value_reference: {}, var_type: ::fmi2::export::VarType::{}, causality: ::fmi2::export::Causality::{}, variability: ::fmi2::export::Variability::{}, min: {}, max: {} }},",
             v.name,
             v.value_reference,
             var_type_ident(v.var_type()),
             causality_ident(v.causality),
             variability_ident(v.variability),
+            option_literal(min),
+            option_literal(max),
         );
     }
     let _ = writeln!(out, "];");
@@ -84,6 +90,7 @@ pub fn codegen_rust(md: &ModelDescription) -> String {
         out,
         "/// Start values of the Real, Integer, Boolean (0/1) and Enumeration variables that have one."
     );
+    let _ = writeln!(out, "#[allow(clippy::approx_constant)]");
     let _ = writeln!(
         out,
         "pub const START: &[(u32, ::fmi2::export::VarType, f64)] = &["
@@ -143,6 +150,14 @@ fn f64_literal(x: f64) -> String {
         // always with a `.` or exponent, i.e. a valid f64 literal.
         format!("{x:?}")
     }
+}
+
+/// `Some(x)` / `None` as a Rust expression.
+fn option_literal(x: Option<f64>) -> String {
+    x.map_or_else(
+        || "None".to_owned(),
+        |x| format!("Some({})", f64_literal(x)),
+    )
 }
 
 fn var_type_ident(t: VarType) -> &'static str {
@@ -263,7 +278,7 @@ mod tests {
                         display_unit: None,
                         start: Some(0.5),
                         min: None,
-                        max: None,
+                        max: Some(2.0),
                         nominal: None,
                         derivative: None,
                     },
@@ -294,7 +309,7 @@ mod tests {
         assert!(src.contains("pub const FORCE_1: u32 = 7;"));
         assert!(src.contains("pub const LEARNING: u32 = 8;"));
         assert!(src.contains(
-            "::fmi2::export::VarSpec { name: \"force[1]\", value_reference: 7, var_type: ::fmi2::export::VarType::Real, causality: ::fmi2::export::Causality::Input, variability: ::fmi2::export::Variability::Continuous },"
+            "::fmi2::export::VarSpec { name: \"force[1]\", value_reference: 7, var_type: ::fmi2::export::VarType::Real, causality: ::fmi2::export::Causality::Input, variability: ::fmi2::export::Variability::Continuous, min: None, max: Some(2.0) },"
         ));
         assert!(src.contains("(7, ::fmi2::export::VarType::Real, 0.5),"));
         assert!(src.contains("(8, ::fmi2::export::VarType::Boolean, 1.0),"));

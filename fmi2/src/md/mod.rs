@@ -451,6 +451,54 @@ impl ModelDescription {
         validate::validate(self)
     }
 
+    /// The bounds a value of `v` must respect: its own `min`/`max`, else those of its
+    /// declared type; for an Enumeration without bounds, the smallest and largest item, since
+    /// no other value means anything. `None` where unbounded (and for Boolean and String).
+    pub fn range_of(&self, v: &ScalarVariable) -> (Option<f64>, Option<f64>) {
+        let declared = |name: Option<&str>| name.and_then(|n| self.simple_type(n)).map(|t| &t.kind);
+        match &v.kind {
+            VariableKind::Real {
+                declared_type,
+                min,
+                max,
+                ..
+            } => {
+                let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                    Some(SimpleTypeKind::Real { min, max, .. }) => (*min, *max),
+                    _ => (None, None),
+                };
+                (min.or(tmin), max.or(tmax))
+            }
+            VariableKind::Integer {
+                declared_type,
+                min,
+                max,
+                ..
+            } => {
+                let (tmin, tmax) = match declared(declared_type.as_deref()) {
+                    Some(SimpleTypeKind::Integer { min, max, .. }) => (*min, *max),
+                    _ => (None, None),
+                };
+                (min.or(tmin).map(f64::from), max.or(tmax).map(f64::from))
+            }
+            VariableKind::Enumeration {
+                declared_type,
+                min,
+                max,
+                ..
+            } => {
+                let items = match declared(Some(declared_type)) {
+                    Some(SimpleTypeKind::Enumeration { items, .. }) => items.as_slice(),
+                    _ => &[],
+                };
+                let lo = items.iter().map(|i| i.value).min();
+                let hi = items.iter().map(|i| i.value).max();
+                (min.or(lo).map(f64::from), max.or(hi).map(f64::from))
+            }
+            VariableKind::Boolean { .. } | VariableKind::String { .. } => (None, None),
+        }
+    }
+
     /// The variable with this exact name.
     pub fn variable_by_name(&self, name: &str) -> Option<&ScalarVariable> {
         self.model_variables.iter().find(|v| v.name == name)

@@ -19,17 +19,29 @@ use super::*;
 struct Positions<'a> {
     xml: &'a str,
     starts: HashMap<String, Vec<usize>>,
+    /// Byte offset of every `\n`, ascending, so a line lookup is a binary search: every
+    /// variable records its line, and counting from the start each time made parsing
+    /// quadratic in the file size.
+    newlines: Vec<usize>,
 }
 
-impl Positions<'_> {
+impl<'a> Positions<'a> {
+    fn new(xml: &'a str) -> Self {
+        Self {
+            xml,
+            starts: HashMap::new(),
+            newlines: xml
+                .bytes()
+                .enumerate()
+                .filter_map(|(i, b)| (b == b'\n').then_some(i))
+                .collect(),
+        }
+    }
+
     /// 1-based line of a byte offset.
     fn line_at(&self, offset: usize) -> usize {
         let end = offset.min(self.xml.len());
-        self.xml.as_bytes()[..end]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+        self.newlines.partition_point(|&n| n < end) + 1
     }
 
     /// Offset of the `i`-th element with this `parent/name` key.
@@ -62,10 +74,7 @@ impl Positions<'_> {
 /// Checks well-formedness and records element positions.
 fn scan(xml: &str) -> Result<(String, Positions<'_>), MdError> {
     let mut reader = Reader::from_str(xml);
-    let mut positions = Positions {
-        xml,
-        starts: HashMap::new(),
-    };
+    let mut positions = Positions::new(xml);
     let mut stack: Vec<(String, usize)> = Vec::new();
     let mut root: Option<String> = None;
     loop {

@@ -62,6 +62,8 @@ const fn var(
         var_type,
         causality,
         variability,
+        min: None,
+        max: None,
     }
 }
 
@@ -832,6 +834,7 @@ impl Fmu {
                 assert_eq!(fmu.free_state(&mut snap), Status::Ok);
                 let at = state_code_offset();
                 bytes[at..at + 4].copy_from_slice(&4u32.to_le_bytes());
+                reseal(&mut bytes);
                 assert_eq!(fmu.deserialize(&bytes, &mut snap), Status::Ok);
                 assert_eq!(fmu.set_state(snap), Status::Ok);
                 assert_eq!(fmu.free_state(&mut snap), Status::Ok);
@@ -842,6 +845,14 @@ impl Fmu {
         fmu.log.clear();
         fmu
     }
+}
+
+/// Replaces the trailing CRC-32 of an edited serialized state, so the edit reaches the
+/// checks behind the checksum.
+pub fn reseal(bytes: &mut [u8]) {
+    let body = bytes.len() - 4;
+    let crc = crc32fast::hash(&bytes[..body]);
+    bytes[body..].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// Offset of the FMI-state code in a serialized Oscillator state.

@@ -27,7 +27,7 @@ fn describe(fmu: &Fmu) -> String {
     let md = fmu.model_description();
     let mut out = String::new();
     // Writing into a String cannot fail; the `let _ =` below discard that impossible error.
-    let _ = writeln!(out, "{}", fmu.path().display());
+    let _ = writeln!(out, "{}", escape(&fmu.path().display().to_string()));
     let mut identity = vec![
         ("Model", md.model_name.clone()),
         ("FMI version", md.fmi_version.clone()),
@@ -61,7 +61,7 @@ fn describe(fmu: &Fmu) -> String {
         let _ = writeln!(
             out,
             "Co-Simulation (modelIdentifier {})",
-            cs.model_identifier
+            escape(&cs.model_identifier)
         );
         let flags = [
             (
@@ -101,7 +101,7 @@ fn describe(fmu: &Fmu) -> String {
             let _ = writeln!(
                 out,
                 "Model Exchange (modelIdentifier {}): offered, not used by this tool",
-                me.model_identifier
+                escape(&me.model_identifier)
             );
         }
         None => out.push_str("Model Exchange: not offered\n"),
@@ -133,9 +133,9 @@ fn describe(fmu: &Fmu) -> String {
         for (t, items) in enumerations {
             let list: Vec<String> = items
                 .iter()
-                .map(|i| format!("{} = {}", i.value, i.name))
+                .map(|i| format!("{} = {}", i.value, escape(&i.name)))
                 .collect();
-            let _ = writeln!(out, "  {}: {}", t.name, list.join(", "));
+            let _ = writeln!(out, "  {}: {}", escape(&t.name), list.join(", "));
         }
     }
 
@@ -162,18 +162,9 @@ fn describe(fmu: &Fmu) -> String {
 
 /// The `binaries/` subdirectories present in the archive.
 fn platforms(fmu: &Fmu) -> String {
-    let mut names: Vec<String> = std::fs::read_dir(fmu.unpacked_dir().join("binaries"))
-        .map(|dir| {
-            dir.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    names.sort();
     format!(
         "{} (running here as {})",
-        names.join(", "),
+        fmu.platforms().join(", "),
         fmi2::import::PLATFORM
     )
 }
@@ -265,16 +256,37 @@ fn variable_row(md: &ModelDescription, v: &ScalarVariable) -> Vec<String> {
     ]
 }
 
+/// `text` with control characters (from any string of the model description) escaped as
+/// `\u{1b}`, so a hostile or broken FMU cannot move the cursor, clear the screen or forge
+/// lines in the user's terminal. Backslashes are escaped too, so the output is unambiguous.
+fn escape(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(|c| c.is_control() || c == '\\') {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c == '\\' {
+            out.push_str("\\\\");
+        } else if c.is_control() {
+            let _ = write!(out, "\\u{{{:x}}}", u32::from(c));
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// `key   value` lines with the values aligned.
 fn key_values(indent: &str, pairs: &[(&str, String)]) -> String {
     let width = pairs
         .iter()
-        .map(|(k, _)| k.chars().count())
+        .map(|(k, _)| escape(k).chars().count())
         .max()
         .unwrap_or(0);
     let mut out = String::new();
     for (k, v) in pairs {
-        let _ = writeln!(out, "{indent}{k:<width$}  {v}");
+        let k = escape(k);
+        let _ = writeln!(out, "{indent}{k:<width$}  {}", escape(v));
     }
     out
 }
@@ -282,8 +294,12 @@ fn key_values(indent: &str, pairs: &[(&str, String)]) -> String {
 /// A left-aligned text table; the last column is not padded, so long descriptions do not
 /// push trailing spaces onto every line.
 fn table(indent: &str, header: &[&str], rows: &[Vec<String>]) -> String {
+    let rows: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| r.iter().map(|c| escape(c).into_owned()).collect())
+        .collect();
     let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
-    for row in rows {
+    for row in &rows {
         for (w, cell) in widths.iter_mut().zip(row) {
             *w = (*w).max(cell.chars().count());
         }
@@ -302,7 +318,7 @@ fn table(indent: &str, header: &[&str], rows: &[Vec<String>]) -> String {
         out.push('\n');
     };
     line(&mut header.iter().copied());
-    for row in rows {
+    for row in &rows {
         line(&mut row.iter().map(String::as_str));
     }
     out
@@ -323,6 +339,19 @@ mod tests {
             text,
             "  name    vr  description\n  x       1   first\n  longer  22\n"
         );
+    }
+
+    #[test]
+    fn control_characters_are_escaped_everywhere() {
+        let rows = vec![vec!["x\u{1b}[2J".to_owned(), "a\nb\\c".to_owned()]];
+        let text = table("", &["name", "description"], &rows);
+        assert_eq!(
+            text,
+            "name        description\nx\\u{1b}[2J  a\\u{a}b\\\\c\n"
+        );
+        assert!(!text.contains('\u{1b}'));
+        let kv = key_values("", &[("Model", "m\rX".into())]);
+        assert_eq!(kv, "Model  m\\u{d}X\n");
     }
 
     #[test]

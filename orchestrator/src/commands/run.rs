@@ -41,6 +41,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         fmu_logging: args.fmu_logging,
         progress: true,
         stop_after: args.stop_after,
+        force: args.force,
+        memory_limit_mib: args.memory_limit_mib,
+        crash_at: args.crash_at,
     };
     let summaries = run_campaign(&scenario, &text, fmus, &opts)?;
     for s in &summaries {

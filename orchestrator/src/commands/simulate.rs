@@ -15,12 +15,12 @@ use fmi2::Status;
 use fmi2::export::{Causality, Variability};
 use fmi2::import::{Fmu, ImportError, Instance};
 use fmi2::md::{Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
-use orchestrator::output::{CsvExporter, Exporter, Recording, write_recording};
+use orchestrator::master::STATUS_CATEGORIES;
+use orchestrator::output::{CsvWithText, Exporter, Recording, write_recording};
+use orchestrator::scenario::{self, check_value};
 
 use crate::args::SimulateArgs;
 
-/// Step size when neither `--step-size` nor the DefaultExperiment gives one.
-const DEFAULT_STEP_SIZE: f64 = 1e-3;
 /// Stop time when neither `--stop-time` nor the DefaultExperiment gives one.
 const DEFAULT_STOP_TIME: f64 = 1.0;
 /// Refuse grids longer than this: the recording is kept in memory, and such a count is
@@ -34,11 +34,19 @@ const GRID_SLACK: f64 = 1e-9;
 pub fn run(args: SimulateArgs) -> Result<()> {
     let fmu = open_fmu(&args.fmu)?;
     let mut plan = Plan::new(&args, fmu.model_description())?;
-    let recording = simulate(&fmu, &mut plan, args.fmu_logging)
+    let (recording, text, ended) = simulate(&fmu, &mut plan, args.fmu_logging)
         .with_context(|| format!("simulation of {} failed", args.fmu.display()))?;
+    if let Some(notice) = ended {
+        eprintln!(
+            "notice: {notice}; the simulation ends at t = {} s with {} rows",
+            recording.time.last().copied().unwrap_or(f64::NAN),
+            recording.len()
+        );
+    }
+    let exporter = CsvWithText { text };
     match &args.output {
-        Some(path) => write_recording(path, &recording, &CsvExporter)?,
-        None => match CsvExporter.write(&recording, &mut io::stdout().lock()) {
+        Some(path) => write_recording(path, &recording, &exporter)?,
+        None => match exporter.write(&recording, &mut io::stdout().lock()) {
             // A reader that stops early (`| head`) is not an error of the simulation.
             Err(e) if e.kind() == io::ErrorKind::BrokenPipe => {}
             other => other.context("cannot write the result to standard output")?,
@@ -83,7 +91,7 @@ impl Plan {
         let step = args
             .step_size
             .or(experiment.step_size)
-            .unwrap_or(DEFAULT_STEP_SIZE);
+            .unwrap_or_else(|| auto_interval(stop - start));
         let can_vary = md
             .co_simulation
             .as_ref()
@@ -134,6 +142,7 @@ fn parse_assignment(md: &ModelDescription, text: &str) -> Result<Vec<Assignment>
         .map(|var| {
             settable(var)?;
             let value = parse_value(md, var, value).map_err(anyhow::Error::msg)?;
+            check_range(md, var, &value).map_err(anyhow::Error::msg)?;
             Ok(Assignment {
                 name: var.name.clone(),
                 vr: var.value_reference,
@@ -254,6 +263,41 @@ fn parse_value(md: &ModelDescription, var: &ScalarVariable, text: &str) -> Resul
             })
         }
         VariableKind::String { .. } => Ok(Value::String(text.to_owned())),
+    }
+}
+
+/// Checks a number against the variable's declared `min`/`max` (the same rule as scenario
+/// validation), so a value the FMU would refuse fails before the FMU is instantiated.
+fn check_range(md: &ModelDescription, var: &ScalarVariable, value: &Value) -> Result<(), String> {
+    let value = match *value {
+        Value::Real(x) => scenario::Value::Real(x),
+        Value::Integer(n) => scenario::Value::Integer(n),
+        Value::Boolean(_) | Value::String(_) => return Ok(()),
+    };
+    check_value(md, var, &value)
+}
+
+/// fmpy's default output interval (`fmpy.util.auto_interval`, fmpy 0.3.32), used when
+/// neither `--step-size` nor the model gives a step: 10^(round(log10 span) − 3), scaled
+/// so that the span holds between 500 and 1000 steps (a 1 s span gives 2 ms).
+fn auto_interval(span: f64) -> f64 {
+    // numpy rounds halves to even.
+    let h = 10f64.powf(span.log10().round_ties_even() - 3.0);
+    let n = span / h;
+    if n >= 2500.0 {
+        h * 5.0
+    } else if n >= 2000.0 {
+        h * 4.0
+    } else if n >= 1000.0 {
+        h * 2.0
+    } else if n <= 200.0 {
+        h / 5.0
+    } else if n <= 250.0 {
+        h / 4.0
+    } else if n <= 500.0 {
+        h / 2.0
+    } else {
+        h
     }
 }
 
@@ -447,12 +491,9 @@ impl InputTable {
                 .enumerate()
                 .map(|(i, var)| {
                     let cell = record.get(i + 1).unwrap_or_default();
-                    match parse_value(md, var, cell) {
-                        Ok(Value::String(_)) => bail!(
-                            "{} ('{}'): String inputs cannot be driven from a file",
-                            at(line, i + 2),
-                            var.name
-                        ),
+                    match parse_value(md, var, cell)
+                        .and_then(|v| check_range(md, var, &v).map(|()| v))
+                    {
                         Ok(v) => Ok(v),
                         Err(message) => bail!("{} ('{}'): {message}", at(line, i + 2), var.name),
                     }
@@ -516,6 +557,8 @@ struct Recorder {
     reals: Group<f64>,
     integers: Group<i32>,
     booleans: Group<bool>,
+    /// String variables: value references, their columns, and every sample's values.
+    strings: Vec<(u32, usize, Vec<String>)>,
 }
 
 /// Value references of one base type, the recording columns they fill, and a buffer.
@@ -535,7 +578,8 @@ impl<T: Default + Clone> Group<T> {
 }
 
 impl Recorder {
-    /// `--record` names (arrays expanded), or every output when none are given.
+    /// `--record` names (arrays expanded), or every output when none are given (String
+    /// outputs only when named, as fmpy does).
     fn new(md: &ModelDescription, names: &[String]) -> Result<Recorder> {
         let vars: Vec<&ScalarVariable> = if names.is_empty() {
             md.model_variables
@@ -557,6 +601,7 @@ impl Recorder {
             reals: Group::default(),
             integers: Group::default(),
             booleans: Group::default(),
+            strings: Vec::new(),
         };
         for (column, var) in vars.into_iter().enumerate() {
             let vr = var.value_reference;
@@ -566,18 +611,29 @@ impl Recorder {
                     recorder.integers.push(vr, column);
                 }
                 VariableKind::Boolean { .. } => recorder.booleans.push(vr, column),
-                VariableKind::String { .. } => bail!(
-                    "--record {}: String variables cannot be recorded as numbers",
-                    var.name
-                ),
+                VariableKind::String { .. } => recorder.strings.push((vr, column, Vec::new())),
             }
             recorder.names.push(var.name.clone());
         }
         Ok(recorder)
     }
 
-    /// Reads every recorded variable into `row` (Booleans as 0/1).
+    /// The String columns recorded so far, as (column, values).
+    fn take_text(&mut self) -> TextColumns {
+        self.strings
+            .iter_mut()
+            .map(|(_, column, values)| (*column, std::mem::take(values)))
+            .collect()
+    }
+
+    /// Reads every recorded variable into `row` (Booleans as 0/1; Strings into their own
+    /// columns, leaving NaN in `row`).
     fn sample(&mut self, inst: &mut Instance, row: &mut [f64]) -> Result<(), ImportError> {
+        for (vr, column, values) in &mut self.strings {
+            let mut text = inst.get_string(&[*vr])?;
+            values.push(text.pop().unwrap_or_default());
+            row[*column] = f64::NAN;
+        }
         if !self.reals.vrs.is_empty() {
             inst.get_real(&self.reals.vrs, &mut self.reals.buffer)?;
             for (&c, &x) in self.reals.columns.iter().zip(&self.reals.buffer) {
@@ -610,8 +666,17 @@ fn report_log(inst: &Instance, status: Status, verbose: bool) {
     }
 }
 
-/// Instantiates, initializes and steps the FMU over the grid, returning the recording.
-fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
+/// String columns of a recording: (column, one value per row).
+type TextColumns = Vec<(usize, Vec<String>)>;
+
+/// Instantiates, initializes and steps the FMU over the grid, returning the recording, its
+/// String columns, and why it ended early (fmi2Discard, with or without a request to
+/// terminate), if it did.
+fn simulate(
+    fmu: &Fmu,
+    plan: &mut Plan,
+    verbose: bool,
+) -> Result<(Recording, TextColumns, Option<String>)> {
     let md = fmu.model_description();
     let mut inst = fmu
         .instantiate(&md.model_name, verbose)
@@ -619,6 +684,18 @@ fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
     if verbose {
         let status = inst.set_debug_logging(true, &[])?;
         report_log(&inst, status, verbose);
+    } else {
+        // Still hear why a call fails or is discarded: the status categories the FMU
+        // declares log only when something goes wrong.
+        let categories: Vec<&str> = md
+            .log_categories
+            .iter()
+            .map(|c| c.name.as_str())
+            .filter(|n| STATUS_CATEGORIES.contains(n))
+            .collect();
+        if !categories.is_empty() {
+            inst.set_debug_logging(true, &categories)?;
+        }
     }
     for a in &plan.starts {
         let status = set_value(&mut inst, a.vr, &a.value)
@@ -657,9 +734,43 @@ fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
                 .with_context(|| format!("setting the inputs at t = {t} s"))?;
             report_log(&inst, status, verbose);
         }
-        let status = inst
-            .do_step(t, h, true)
-            .with_context(|| format!("step from t = {t} s by {h} s"))?;
+        let status = match inst.do_step(t, h, true) {
+            Ok(status) => status,
+            // The FMU cannot (or will not) go on: like fmpy and fmusim, keep every completed
+            // row and end normally rather than lose the result.
+            Err(ImportError::Call {
+                status: Status::Discard,
+                messages,
+                ..
+            }) => {
+                let terminated = inst.is_terminated().unwrap_or(false);
+                let last = inst.last_successful_time().ok().filter(|x| x.is_finite());
+                // A partly completed step: its outputs hold at the last successful time.
+                if let Some(last) = last.filter(|&x| x > t + slack && x < t + h) {
+                    if plan.recorder.sample(&mut inst, &mut row).is_ok() {
+                        recording.push_row(last, &row);
+                    }
+                }
+                let _ = inst.terminate();
+                let why: Vec<String> = messages.iter().map(ToString::to_string).collect();
+                let notice = format!(
+                    "fmi2DoStep from t = {t} s by {h} s returned fmi2Discard{}{}",
+                    if terminated {
+                        " and the FMU asks to terminate"
+                    } else {
+                        ""
+                    },
+                    if why.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({})", why.join("; "))
+                    }
+                );
+                let text = plan.recorder.take_text();
+                return Ok((recording, text, Some(notice)));
+            }
+            Err(e) => return Err(e).with_context(|| format!("step from t = {t} s by {h} s")),
+        };
         report_log(&inst, status, verbose);
         let t_next = grid.time(n + 1);
         plan.recorder
@@ -669,7 +780,8 @@ fn simulate(fmu: &Fmu, plan: &mut Plan, verbose: bool) -> Result<Recording> {
     }
     let status = inst.terminate()?;
     report_log(&inst, status, verbose);
-    Ok(recording)
+    let text = plan.recorder.take_text();
+    Ok((recording, text, None))
 }
 
 #[cfg(test)]
@@ -697,6 +809,17 @@ mod tests {
     }
 
     #[test]
+    fn auto_interval_follows_fmpy() {
+        // fmpy 0.3.32 util.auto_interval: h = 10^(round(log10 span) − 3), then scaled so the
+        // span holds 500 to 1000 steps. The same five values come out of fmpy itself.
+        assert_eq!(auto_interval(1.0), 0.002); // 1000 steps of 1 ms → ×2
+        assert_eq!(auto_interval(2.0), 0.004); // 2000 → ×4
+        assert_eq!(auto_interval(10.0), 0.02); // 1000 of 10 ms → ×2
+        assert_eq!(auto_interval(0.3), 0.0005); // h = 1e-4 (log10 0.3 → −1), 3000 → ×5
+        assert_eq!(auto_interval(5.0), 0.005); // h = 0.01 (log10 5 → 1), 500 → ÷2
+    }
+
+    #[test]
     fn grid_rejects_bad_times() {
         for (start, stop, step) in [(0.0, 0.0, 0.1), (1.0, 0.5, 0.1), (0.0, 1.0, 0.0)] {
             assert!(Grid::new(start, stop, step, true).is_err());
@@ -721,6 +844,137 @@ mod tests {
         // A grid time rounded a few ulps below a row's time still reaches that row.
         assert_eq!(table.row_at(1.0 - 1e-15, slack), Some(2));
         assert_eq!(table.row_at(5.0, slack), Some(3));
+    }
+
+    fn foreign_md() -> ModelDescription {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/fixtures/foreign-fmu/modelDescription.xml");
+        ModelDescription::parse(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    /// A model with a String input, which no FMU of the workspace has.
+    fn string_md() -> ModelDescription {
+        let xml = foreign_md_xml().replace(
+            "<!-- 1 -->",
+            r#"<ScalarVariable name="label" valueReference="9" causality="input" variability="discrete"><String start=""/></ScalarVariable>
+    <!-- 1 -->"#,
+        );
+        ModelDescription::parse(&xml).unwrap()
+    }
+
+    fn foreign_md_xml() -> String {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/fixtures/foreign-fmu/modelDescription.xml");
+        std::fs::read_to_string(path).unwrap()
+    }
+
+    #[test]
+    fn string_inputs_are_read_from_the_file() {
+        let md = string_md();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        std::fs::write(&path, "time,label,drive\n0,\"a, b\",1\n1,c,2\n").unwrap();
+        let table = InputTable::read(&path, &md).unwrap();
+        assert_eq!(table.rows[0][0], Value::String("a, b".into()));
+        assert_eq!(table.rows[1][0], Value::String("c".into()));
+        assert_eq!(table.rows[1][1], Value::Real(2.0));
+    }
+
+    #[test]
+    fn input_values_outside_the_declared_range_name_line_and_column() {
+        let md = foreign_md();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        // `drive` has no range, but it must be finite.
+        std::fs::write(&path, "time,drive\n0,1\n1,nan\n").unwrap();
+        let err = InputTable::read(&path, &md).unwrap_err().to_string();
+        assert!(err.contains("in.csv:3: column 2 ('drive')"), "{err}");
+        assert!(err.contains("not a finite number"), "{err}");
+    }
+
+    /// Fuzzing the input-CSV reader: the files of `tests/corpus/input_csv/` (the kept
+    /// corpus), mutated at random, are read into a consistent table or refused with the
+    /// file and a line, never a panic. 1000 cases; a failure is stored by proptest under
+    /// `proptest-regressions/` and replayed first.
+    mod fuzz_input_csv {
+        use super::*;
+        use proptest::prelude::*;
+
+        const TOKENS: &[&str] = &[
+            "nan", "inf", "-inf", "1e309", "-0", ",", "\"", "\n", "\r\n", "time", "drive", "x",
+            "label", " ", "\u{0}", "0.5", "-1", "1e-320",
+        ];
+
+        fn corpus() -> Vec<Vec<u8>> {
+            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/input_csv");
+            let mut files: Vec<_> = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .collect();
+            files.sort();
+            files.iter().map(|p| std::fs::read(p).unwrap()).collect()
+        }
+
+        #[test]
+        fn the_corpus_is_valid() {
+            let md = string_md();
+            let dir = tempfile::tempdir().unwrap();
+            for (i, bytes) in corpus().iter().enumerate() {
+                let path = dir.path().join(format!("{i}.csv"));
+                std::fs::write(&path, bytes).unwrap();
+                InputTable::read(&path, &md).unwrap();
+            }
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+
+            #[test]
+            fn mutated_inputs_are_consistent_or_refused_with_the_line(
+                pick in any::<usize>(),
+                edits in prop::collection::vec(
+                    (any::<usize>(), 0..TOKENS.len(), any::<bool>()), 1..6),
+            ) {
+                let md = string_md();
+                let corpus = corpus();
+                let mut bytes = corpus[pick % corpus.len()].clone();
+                for &(at, token, delete) in &edits {
+                    let at = at % (bytes.len() + 1);
+                    if delete && at < bytes.len() {
+                        bytes.remove(at);
+                    } else {
+                        bytes.splice(at..at, TOKENS[token].bytes());
+                    }
+                }
+                let dir = tempfile::tempdir().unwrap();
+                let path = dir.path().join("in.csv");
+                std::fs::write(&path, &bytes).unwrap();
+                match InputTable::read(&path, &md) {
+                    Ok(t) => {
+                        prop_assert!(!t.times.is_empty());
+                        prop_assert_eq!(t.times.len(), t.rows.len());
+                        prop_assert!(t.times.iter().all(|t| t.is_finite()));
+                        prop_assert!(t.times.windows(2).all(|w| w[0] <= w[1]));
+                        for row in &t.rows {
+                            prop_assert_eq!(row.len(), t.columns.len());
+                            for v in row {
+                                if let Value::Real(x) = v {
+                                    prop_assert!(x.is_finite());
+                                }
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        let text = format!("{e:#}");
+                        let prefix = format!("{}:", path.display());
+                        prop_assert!(
+                            text.starts_with(&prefix) || text.starts_with("cannot read"),
+                            "{}", text
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

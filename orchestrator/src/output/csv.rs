@@ -33,26 +33,71 @@ impl Exporter for CsvExporter {
     }
 
     fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
-        if let Some(message) = rec.shape_error() {
-            return Err(io::Error::new(io::ErrorKind::InvalidData, message));
+        write_csv(rec, &[], w)
+    }
+}
+
+/// [`CsvExporter`]'s format with some columns holding text (FMI String variables): column
+/// `i` of `text` replaces the numeric column `text[i].0` of the recording, whose numbers are
+/// then ignored. Text is quoted by the `csv` crate where needed.
+#[derive(Debug, Clone, Default)]
+pub struct CsvWithText {
+    /// (column index, one value per row).
+    pub text: Vec<(usize, Vec<String>)>,
+}
+
+impl Exporter for CsvWithText {
+    fn extension(&self) -> &'static str {
+        "csv"
+    }
+
+    fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
+        if let Some((c, t)) = self
+            .text
+            .iter()
+            .find(|(c, t)| *c >= rec.columns.len() || t.len() != rec.time.len())
+        {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "text column {c} has {} rows for {} columns of {} rows",
+                    t.len(),
+                    rec.columns.len(),
+                    rec.time.len()
+                ),
+            ));
         }
-        let mut out = Writer::from_writer(w);
-        out.write_field("time")?;
-        for name in &rec.names {
-            out.write_field(name)?;
+        write_csv(rec, &self.text, w)
+    }
+}
+
+fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) -> io::Result<()> {
+    if let Some(message) = rec.shape_error() {
+        return Err(io::Error::new(io::ErrorKind::InvalidData, message));
+    }
+    let mut out = Writer::from_writer(w);
+    out.write_field("time")?;
+    for name in &rec.names {
+        out.write_field(name)?;
+    }
+    out.write_record(None::<&[u8]>)?;
+    // Per column: its text, if it is a text column.
+    let texts: Vec<Option<&Vec<String>>> = (0..rec.columns.len())
+        .map(|c| text.iter().find(|(i, _)| *i == c).map(|(_, t)| t))
+        .collect();
+    // One reused buffer for all numbers: a recording has ~10^5 rows of ~20 fields.
+    let mut buf = String::with_capacity(32);
+    for (row, &t) in rec.time.iter().enumerate() {
+        write_number(&mut out, &mut buf, t)?;
+        for (column, text) in rec.columns.iter().zip(&texts) {
+            match text {
+                Some(text) => out.write_field(&text[row])?,
+                None => write_number(&mut out, &mut buf, column[row])?,
+            }
         }
         out.write_record(None::<&[u8]>)?;
-        // One reused buffer for all numbers: a recording has ~10^5 rows of ~20 fields.
-        let mut buf = String::with_capacity(32);
-        for (row, &t) in rec.time.iter().enumerate() {
-            write_number(&mut out, &mut buf, t)?;
-            for column in &rec.columns {
-                write_number(&mut out, &mut buf, column[row])?;
-            }
-            out.write_record(None::<&[u8]>)?;
-        }
-        out.flush()
     }
+    out.flush()
 }
 
 fn write_number<W: Write>(out: &mut Writer<W>, buf: &mut String, v: f64) -> io::Result<()> {

@@ -5,14 +5,18 @@
 //! file or the complete new one, never a torn file that `--resume` or a reader would misparse.
 
 mod atomic;
+pub mod convergence_plot;
 mod csv;
 pub mod plots;
 mod recording;
+pub mod sweep_plots;
 
 use std::path::PathBuf;
 
 pub use self::atomic::write_atomic;
-pub use self::csv::{CsvExporter, Exporter, read_recording_csv, write_recording, write_table_csv};
+pub use self::csv::{
+    CsvExporter, CsvWithText, Exporter, read_recording_csv, write_recording, write_table_csv,
+};
 pub use self::recording::Recording;
 
 /// Failure to write or read a result file; every variant names the file so a user running a

@@ -8,6 +8,7 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
+use std::time::SystemTime;
 
 use orchestrator::output::{Recording, read_recording_csv};
 
@@ -24,8 +25,65 @@ pub fn orchestrator() -> assert_cmd::Command {
     assert_cmd::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
 }
 
+/// What the packaged FMUs are built from (relative to the workspace root): an FMU older than
+/// any of these was packaged from other sources and would test old code.
+pub const FMU_SOURCES: &[&str] = &[
+    "Cargo.lock",
+    "ckcm/Cargo.toml",
+    "ckcm/src",
+    "fmi2/Cargo.toml",
+    "fmi2/build.rs",
+    "fmi2/src",
+    "fmu-plant/Cargo.toml",
+    "fmu-plant/build.rs",
+    "fmu-plant/src",
+    "fmu-controller/Cargo.toml",
+    "fmu-controller/build.rs",
+    "fmu-controller/src",
+    "modelDescription",
+    "xtask/src",
+];
+
+/// The newest modification time of the files under `paths` (relative to the workspace
+/// root; missing paths are skipped), with the file.
+pub fn newest_source(paths: &[&str]) -> Option<(SystemTime, PathBuf)> {
+    let mut newest: Option<(SystemTime, PathBuf)> = None;
+    let mut stack: Vec<PathBuf> = paths.iter().map(|p| workspace_root().join(p)).collect();
+    while let Some(path) = stack.pop() {
+        let Ok(meta) = std::fs::metadata(&path) else {
+            continue;
+        };
+        if meta.is_dir() {
+            for entry in std::fs::read_dir(&path).unwrap() {
+                stack.push(entry.unwrap().path());
+            }
+        } else if let Ok(modified) = meta.modified() {
+            if newest.as_ref().is_none_or(|(t, _)| modified > *t) {
+                newest = Some((modified, path));
+            }
+        }
+    }
+    newest
+}
+
+/// Fails loudly when `artifact` is older than a file it is built from, naming both and the
+/// command that rebuilds it: a stale FMU or binary would test old code and pass.
+pub fn assert_fresh(artifact: &Path, sources: &[&str], rebuild: &str) {
+    let built = std::fs::metadata(artifact)
+        .and_then(|m| m.modified())
+        .unwrap_or_else(|e| panic!("{}: {e}", artifact.display()));
+    if let Some((modified, source)) = newest_source(sources) {
+        assert!(
+            built >= modified,
+            "{} is older than {}: it was built from other sources; run `{rebuild}`",
+            artifact.display(),
+            source.display()
+        );
+    }
+}
+
 /// `$CKCM_FMU_DIR/<name>.fmu`, by default `<workspace>/target/fmu/<name>.fmu`, which
-/// `cargo xtask fmu` builds.
+/// `cargo xtask fmu` builds; it must be newer than its sources.
 pub fn built_fmu(name: &str) -> PathBuf {
     let dir = std::env::var_os("CKCM_FMU_DIR")
         .map(PathBuf::from)
@@ -36,6 +94,7 @@ pub fn built_fmu(name: &str) -> PathBuf {
         "{} is missing: run `cargo xtask fmu` first (or point CKCM_FMU_DIR at the FMUs)",
         path.display()
     );
+    assert_fresh(&path, FMU_SOURCES, "cargo xtask fmu");
     path
 }
 

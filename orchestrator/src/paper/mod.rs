@@ -1,0 +1,232 @@
+//! The paper's simulation study (docs/model.md §7): line (15 s) and circle (5 s), each under
+//! PID feedback only, PID + PD-type ILC (Ψ = 0) and PID + PID-type ILC (HLCS), with the
+//! Table 1 gains, run through the FMUs by the same campaign code as `orchestrator run`.
+//!
+//! - [`cases`]: the schemes and trajectories;
+//! - [`scenario`]: each case as a scenario file, and running it;
+//! - [`metrics`]: per-trial figures derived from the recordings (`trial_metrics.csv`);
+//! - [`claims`]: the paper's claims graded from the CSVs;
+//! - [`figures`]: the SVG figures;
+//! - [`report`]: `report.md` from a template, and the self-contained `report.html`.
+
+pub mod cases;
+pub mod claims;
+pub mod figures;
+pub mod metrics;
+pub mod report;
+pub mod scenario;
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
+
+use ckcm::{Trajectory, TrajectoryKind};
+use fmi2::import::Fmu;
+
+pub use self::cases::{CaseResult, Scheme, case_dir};
+use self::cases::{TRAJECTORIES, traj_slug, trial_csv};
+use self::figures::CaseData;
+pub use self::scenario::{recorded_trials, scenario_toml};
+use crate::campaign::CampaignError;
+use crate::output::{OutputError, read_recording_csv, write_table_csv};
+use crate::scenario::ScenarioError;
+
+/// Study settings.
+#[derive(Debug, Clone)]
+pub struct PaperOptions {
+    /// Directory with CkcmPlant.fmu and HlcsController.fmu.
+    pub fmu_dir: PathBuf,
+    /// Where results go (default `results/paper`).
+    pub out_dir: PathBuf,
+    /// Trials per scheme (≥ 5 so the claims about trials 2, 3 and 4 can be checked).
+    pub trials: usize,
+    /// Line duration, s (paper: 15).
+    pub line_duration: f64,
+    /// Circle duration, s (paper: 5).
+    pub circle_duration: f64,
+    /// Continue interrupted campaigns.
+    pub resume: bool,
+    /// Print progress to stderr.
+    pub progress: bool,
+    /// Campaigns run at the same time (threads); results do not depend on it.
+    pub jobs: usize,
+    /// λ-norm weight ρ of the campaigns' summaries, 1/s (default 1).
+    pub rho: f64,
+}
+
+/// A study failure.
+#[derive(Debug, thiserror::Error)]
+pub enum PaperError {
+    /// An FMU could not be opened.
+    #[error("{fmu}: {message}")]
+    Fmu {
+        /// The FMU file.
+        fmu: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// A generated scenario was refused.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// A campaign failed.
+    #[error(transparent)]
+    Campaign(#[from] CampaignError),
+    /// A result file could not be written or read.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A study table is malformed.
+    #[error("{}:{line}: {message}", path.display())]
+    Table {
+        /// The CSV file.
+        path: PathBuf,
+        /// 1-based line (the header is line 1; 0 if the file could not be opened).
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// Anything else, with its reason.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Runs all six cases, then writes the tables, figures and the report.
+pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
+    if opts.trials < 5 {
+        return Err(PaperError::Invalid(format!(
+            "--trials {} is too few: the claims need at least 5 trials",
+            opts.trials
+        )));
+    }
+    for d in [opts.line_duration, opts.circle_duration] {
+        if !(d.is_finite() && d >= 0.01) {
+            return Err(PaperError::Invalid(format!(
+                "trajectory duration {d} s is not usable"
+            )));
+        }
+    }
+    // Open both FMUs once up front: a missing or broken FMU fails before anything is written.
+    for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
+        let p = opts.fmu_dir.join(name);
+        Fmu::open(&p).map_err(|e| PaperError::Fmu {
+            fmu: p.clone(),
+            message: e.to_string(),
+        })?;
+    }
+    // The six campaigns are independent: run them on `jobs` threads. Each opens its own
+    // FMUs, so no FMI instance ever crosses a thread, and results do not depend on `jobs`.
+    // The same thread then reads the case's recordings back and derives its metrics.
+    let cases: Vec<(TrajectoryKind, Scheme)> = TRAJECTORIES
+        .into_iter()
+        .flat_map(|k| Scheme::ALL.map(|s| (k, s)))
+        .collect();
+    let jobs = opts.jobs.clamp(1, cases.len());
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<Result<CaseData, PaperError>>>> =
+        cases.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&(kind, scheme)) = cases.get(i) else {
+                        break;
+                    };
+                    let result = scenario::run_case(opts, kind, scheme, jobs == 1)
+                        .and_then(|r| case_data(opts, r));
+                    if opts.progress && jobs > 1 && result.is_ok() {
+                        eprintln!("done: {} / {}", traj_slug(kind), scheme.label());
+                    }
+                    let failed = result.is_err();
+                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(result);
+                    if failed {
+                        // Take no further cases; the ones running finish their trial loop.
+                        next.store(cases.len(), Ordering::Relaxed);
+                        break;
+                    }
+                }
+            });
+        }
+    });
+    let mut data = Vec::new();
+    for slot in slots {
+        match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
+            Some(Ok(r)) => data.push(r),
+            Some(Err(e)) => return Err(e),
+            None => {}
+        }
+    }
+    if data.len() != cases.len() {
+        return Err(PaperError::Invalid("a campaign did not run".into()));
+    }
+    let results: Vec<CaseResult> = data.iter().map(|d| d.result.clone()).collect();
+    write_convergence_table(opts, &results)?;
+    let metric_rows: Vec<(TrajectoryKind, Scheme, &[metrics::TrialMetrics])> = data
+        .iter()
+        .map(|d| (d.result.trajectory, d.result.scheme, d.metrics.as_slice()))
+        .collect();
+    metrics::write_trial_metrics(&opts.out_dir.join("trial_metrics.csv"), &metric_rows)?;
+    figures::write_figures(opts, &data)?;
+    drop(data);
+    report::write_report(opts)?;
+    Ok(results)
+}
+
+/// Reads a finished case's recordings and derives their metrics.
+fn case_data(opts: &PaperOptions, result: CaseResult) -> Result<CaseData, PaperError> {
+    let kind = result.trajectory;
+    let trajectory = Trajectory {
+        kind,
+        duration: scenario::duration(opts, kind),
+        home_height: 0.5,
+    };
+    let mut recordings = Vec::new();
+    let mut metrics = Vec::new();
+    let recorded = recorded_trials(opts.trials, result.scheme);
+    let last = recorded.last().copied();
+    for k in recorded {
+        let rec = read_recording_csv(&trial_csv(&result.dir, k))?;
+        metrics.push(metrics::trial_metrics(k, &rec, &trajectory));
+        // Drawn in full: the trial the claims look at (leg errors, path) and the last one
+        // (learned input of every leg).
+        let full = k == figures::claim_trial(kind) || Some(k) == last;
+        recordings.push(figures::TrialData::new(k, rec, &trajectory, full));
+    }
+    Ok(CaseData {
+        result,
+        recordings,
+        metrics,
+        trajectory,
+    })
+}
+
+fn write_convergence_table(opts: &PaperOptions, results: &[CaseResult]) -> Result<(), PaperError> {
+    let header = [
+        "trajectory",
+        "scheme",
+        "trial",
+        "max",
+        "rms",
+        "lambda",
+        "path_max",
+        "path_rms",
+    ];
+    let rows: Vec<Vec<String>> = results
+        .iter()
+        .flat_map(|r| {
+            r.summaries.iter().map(move |s| {
+                vec![
+                    traj_slug(r.trajectory).to_string(),
+                    r.scheme.slug().to_string(),
+                    s.trial.to_string(),
+                    s.legs.overall.max.to_string(),
+                    s.legs.overall.rms.to_string(),
+                    s.legs.overall.lambda.to_string(),
+                    s.path.map(|p| p.max.to_string()).unwrap_or_default(),
+                    s.path.map(|p| p.rms.to_string()).unwrap_or_default(),
+                ]
+            })
+        })
+        .collect();
+    write_table_csv(&opts.out_dir.join("convergence.csv"), &header, &rows)?;
+    Ok(())
+}

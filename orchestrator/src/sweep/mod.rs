@@ -1,0 +1,573 @@
+//! Parameter studies and Monte Carlo runs: a base scenario, axes over FMU parameters and
+//! memory-update settings, and one ordinary campaign per case.
+//!
+//! Output directory layout:
+//! - `sweep.toml`: the sweep file as run;
+//! - `cases/case_NNNN/`: each case, a complete `run` campaign directory (its `scenario.toml`
+//!   reruns it alone) plus `outcome.toml` (completed or failed, and why) once it has ended;
+//! - `sweep.csv`, `figures/*.svg`, `sweep-report.md`: the results of all cases;
+//! - `shard.toml` instead of the results when only shard K of N was run; `merge` combines
+//!   shard directories into the results an unsharded run writes, byte for byte.
+//!
+//! Cases are fixed by the sweep file alone (random draws come from its seed), so every shard
+//! and every resume agrees on what case i is.
+
+mod results;
+pub mod spec;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
+
+use fmi2::import::Fmu;
+use fmi2::md::ModelDescription;
+
+pub use self::results::{CaseResult, Verdict, write_results};
+pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
+use crate::campaign::{CampaignError, CampaignOptions, fnv1a, run_campaign};
+use crate::output::{OutputError, write_atomic};
+use crate::scenario::{Scenario, ScenarioError};
+
+/// A sweep failure; a failing case is not one (it is recorded as failed and the sweep goes on).
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    #[error(transparent)]
+    Spec(#[from] SweepSpecError),
+    #[error("{}: case {case} ({labels}): {source}", file.display())]
+    Case {
+        file: PathBuf,
+        case: usize,
+        labels: String,
+        source: Box<ScenarioError>,
+    },
+    #[error("{}: FMU {}: {message}", file.display(), fmu.display())]
+    Fmu {
+        file: PathBuf,
+        fmu: PathBuf,
+        message: String,
+    },
+    #[error("{}: {message}", dir.display())]
+    Dir { dir: PathBuf, message: String },
+    #[error("case {case}: {source}")]
+    Campaign {
+        case: usize,
+        source: Box<CampaignError>,
+    },
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error("cannot merge: {0}")]
+    Merge(String),
+}
+
+/// How to run a sweep.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
+    pub out_dir: PathBuf,
+    /// Cases run at the same time (threads), each with its own FMUs; results do not depend on it.
+    pub jobs: usize,
+    /// Run only the cases i with i mod N = K, as `(K, N)`.
+    pub shard: Option<(usize, usize)>,
+    /// Continue a sweep found in `out_dir` (finished cases are kept, unfinished ones resumed).
+    pub resume: bool,
+    pub fmu_logging: bool,
+    /// Print a line per finished case.
+    pub progress: bool,
+}
+
+/// The sweep's fingerprint: its file and its base scenario. Shards of one sweep share it.
+pub fn fingerprint(spec: &SweepSpec) -> String {
+    let h = fnv1a(0xcbf2_9ce4_8422_2325, spec.text.as_bytes());
+    format!("{:016x}", fnv1a(h, spec.base_text.as_bytes()))
+}
+
+/// Directory of case `i` under a sweep directory.
+pub fn case_dir(out: &Path, i: usize) -> PathBuf {
+    out.join("cases").join(format!("case_{i:04}"))
+}
+
+/// The FMUs of the base scenario, opened once to read their model descriptions.
+struct BaseFmus {
+    /// (name, absolute path, model description) in scenario order.
+    fmus: Vec<(String, PathBuf, ModelDescription)>,
+}
+
+impl BaseFmus {
+    fn open(spec: &SweepSpec) -> Result<BaseFmus, SweepError> {
+        let doc: toml::Table = toml::from_str(&spec.base_text).map_err(|e| SweepSpecError {
+            file: spec.base.clone(),
+            line: None,
+            message: e.message().to_string(),
+        })?;
+        let dir = spec.base.parent().unwrap_or(Path::new("."));
+        let mut fmus = Vec::new();
+        for f in doc
+            .get("fmu")
+            .and_then(toml::Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            let (Some(name), Some(path)) = (
+                f.get("name").and_then(toml::Value::as_str),
+                f.get("path").and_then(toml::Value::as_str),
+            ) else {
+                continue;
+            };
+            let joined = dir.join(path);
+            let abs = fs::canonicalize(&joined).map_err(|e| SweepError::Fmu {
+                file: spec.base.clone(),
+                fmu: joined.clone(),
+                message: e.to_string(),
+            })?;
+            let fmu = Fmu::open(&abs).map_err(|e| SweepError::Fmu {
+                file: spec.base.clone(),
+                fmu: abs.clone(),
+                message: e.to_string(),
+            })?;
+            fmus.push((name.to_string(), abs, fmu.model_description().clone()));
+        }
+        Ok(BaseFmus { fmus })
+    }
+
+    fn md(&self, path: &Path) -> Result<ModelDescription, String> {
+        self.fmus
+            .iter()
+            .find(|(_, p, _)| p == path)
+            .map(|(_, _, md)| md.clone())
+            .ok_or_else(|| format!("{} is not an FMU of the base scenario", path.display()))
+    }
+
+    fn start(&self, fmu: &str, name: &str) -> Option<f64> {
+        let (_, _, md) = self.fmus.iter().find(|(n, _, _)| n == fmu)?;
+        md.variable_by_name(name)?.start_as_f64()
+    }
+}
+
+/// The scenario text of case `i`: the base scenario with absolute FMU paths, the sweep's
+/// trial count, no recording unless asked, and the case's axis values and seed.
+fn case_text(spec: &SweepSpec, base: &BaseFmus, i: usize) -> Result<String, String> {
+    let mut doc: toml::Table = toml::from_str(&spec.base_text).map_err(|e| e.to_string())?;
+    if let Some(t) = spec.trials {
+        doc.insert("trials".into(), toml::Value::Integer(t as i64));
+    }
+    if !spec.record {
+        doc.remove("record");
+    }
+    for f in fmu_tables(&mut doc) {
+        let name = f.get("name").and_then(toml::Value::as_str).unwrap_or("");
+        if let Some((_, abs, _)) = base.fmus.iter().find(|(n, _, _)| n == name) {
+            f.insert(
+                "path".into(),
+                toml::Value::String(abs.to_string_lossy().into_owned()),
+            );
+        }
+    }
+    for (axis, &v) in spec.axes.iter().zip(&spec.cases[i]) {
+        let value = &axis.values[v];
+        match &axis.target {
+            Target::Parameters(ps) => {
+                for (fmu, name) in ps {
+                    let params = parameters_of(&mut doc, fmu)?;
+                    let set = if axis.scale {
+                        let factor = value.as_float().or(value.as_integer().map(|x| x as f64));
+                        let current = params
+                            .get(name)
+                            .and_then(|x| x.as_float().or(x.as_integer().map(|x| x as f64)))
+                            .or_else(|| base.start(fmu, name))
+                            .ok_or_else(|| format!("{fmu}.{name} has no numeric value to scale"))?;
+                        toml::Value::Float(current * factor.unwrap_or(f64::NAN))
+                    } else {
+                        value.clone()
+                    };
+                    params.insert(name.clone(), set);
+                }
+            }
+            Target::Memory { channel, setting } => {
+                let ch = memory_table(&mut doc, channel)?;
+                if setting == "update" {
+                    match value.as_table() {
+                        Some(t) if t.is_empty() => {
+                            ch.remove("update");
+                        }
+                        Some(t) => {
+                            ch.insert("update".into(), toml::Value::Table(t.clone()));
+                        }
+                        None => return Err("setting = \"update\" takes tables".into()),
+                    }
+                } else {
+                    let update = ch
+                        .entry("update")
+                        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                    if let Some(t) = update.as_table_mut() {
+                        t.insert(setting.clone(), value.clone());
+                    }
+                }
+            }
+        }
+    }
+    if let Some(s) = &spec.seeds {
+        let seed = s.base.wrapping_add(s.stride.wrapping_mul(i as i64));
+        let params = parameters_of(&mut doc, &s.fmu)?;
+        match params
+            .get_mut(&s.parameter)
+            .and_then(toml::Value::as_table_mut)
+        {
+            // A per-trial value: the case moves its base, the trials keep their steps.
+            Some(t) if t.contains_key("base") => {
+                t.insert("base".into(), toml::Value::Integer(seed));
+            }
+            _ => {
+                let value = match s.per_trial {
+                    Some(step) => {
+                        let mut t = toml::Table::new();
+                        t.insert("base".into(), toml::Value::Integer(seed));
+                        t.insert("per_trial".into(), toml::Value::Integer(step));
+                        toml::Value::Table(t)
+                    }
+                    None => toml::Value::Integer(seed),
+                };
+                params.insert(s.parameter.clone(), value);
+            }
+        }
+    }
+    toml::to_string(&doc).map_err(|e| e.to_string())
+}
+
+fn fmu_tables(doc: &mut toml::Table) -> impl Iterator<Item = &mut toml::Table> {
+    doc.get_mut("fmu")
+        .and_then(toml::Value::as_array_mut)
+        .into_iter()
+        .flatten()
+        .filter_map(toml::Value::as_table_mut)
+}
+
+fn parameters_of<'d>(doc: &'d mut toml::Table, fmu: &str) -> Result<&'d mut toml::Table, String> {
+    let f = fmu_tables(doc)
+        .find(|f| f.get("name").and_then(toml::Value::as_str) == Some(fmu))
+        .ok_or_else(|| format!("the base scenario has no FMU {fmu:?}"))?;
+    f.entry("parameters")
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+        .as_table_mut()
+        .ok_or_else(|| format!("parameters of {fmu:?} is not a table"))
+}
+
+fn memory_table<'d>(doc: &'d mut toml::Table, to: &str) -> Result<&'d mut toml::Table, String> {
+    doc.get_mut("memory")
+        .and_then(toml::Value::as_array_mut)
+        .into_iter()
+        .flatten()
+        .filter_map(toml::Value::as_table_mut)
+        .find(|m| m.get("to").and_then(toml::Value::as_str) == Some(to))
+        .ok_or_else(|| format!("the base scenario has no memory channel to {to:?}"))
+}
+
+/// Every case's scenario, validated against the FMUs before anything runs.
+fn plan(spec: &SweepSpec, base: &BaseFmus) -> Result<Vec<(Scenario, String)>, SweepError> {
+    // Parameters named by an axis must exist, so a typo fails at its own line.
+    for axis in &spec.axes {
+        if let Target::Parameters(ps) = &axis.target {
+            for (fmu, name) in ps {
+                let known = base
+                    .fmus
+                    .iter()
+                    .find(|(n, _, _)| n == fmu)
+                    .is_some_and(|(_, _, md)| md.variable_by_name(name).is_some());
+                if !known {
+                    return Err(SweepSpecError {
+                        file: spec.source.clone(),
+                        line: axis.line,
+                        message: format!(
+                            "axis {:?}: FMU {fmu:?} has no variable {name:?}",
+                            axis.name
+                        ),
+                    }
+                    .into());
+                }
+            }
+        }
+    }
+    (0..spec.cases.len())
+        .map(|i| {
+            let case_err = |source: ScenarioError| SweepError::Case {
+                file: spec.source.clone(),
+                case: i,
+                labels: spec.case_labels(i).join(", "),
+                source: Box::new(source),
+            };
+            let file = spec.source.with_file_name(format!("case_{i:04}.toml"));
+            let text = case_text(spec, base, i).map_err(|message| {
+                case_err(ScenarioError {
+                    file: file.clone(),
+                    line: None,
+                    message,
+                })
+            })?;
+            let scenario = Scenario::parse(&text, &file, |p| base.md(p)).map_err(case_err)?;
+            Ok((scenario, text))
+        })
+        .collect()
+}
+
+/// Writes `text` into `path` atomically.
+fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// Whether a case ended (completed or failed) in an earlier run.
+fn finished(out: &Path, i: usize) -> bool {
+    case_dir(out, i).join("outcome.toml").exists()
+}
+
+/// Runs (or resumes) the cases of `spec` that `opts.shard` selects, then writes the results
+/// (unsharded) or `shard.toml` (sharded). Returns the indices of the cases run now.
+pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, SweepError> {
+    let out = &opts.out_dir;
+    if let Some((k, n)) = opts.shard
+        && (n == 0 || k >= n)
+    {
+        return Err(SweepError::Dir {
+            dir: out.clone(),
+            message: format!("shard {k}/{n}: K must be below N"),
+        });
+    }
+    let fp = fingerprint(spec);
+    let stamp = out.join("sweep.toml");
+    if out.exists()
+        && fs::read_dir(out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(false)
+    {
+        if !opts.resume {
+            return Err(SweepError::Dir {
+                dir: out.clone(),
+                message: "the folder is not empty; pass --resume to continue the sweep in it, \
+                          or choose another --out"
+                    .into(),
+            });
+        }
+        match fs::read_to_string(&stamp) {
+            Ok(t) if t == spec.text => {}
+            _ => {
+                return Err(SweepError::Dir {
+                    dir: out.clone(),
+                    message: "it holds no sweep, or a different one; cannot resume".into(),
+                });
+            }
+        }
+    }
+    let base = BaseFmus::open(spec)?;
+    let plans = plan(spec, &base)?;
+    fs::create_dir_all(out.join("cases")).map_err(|e| SweepError::Dir {
+        dir: out.clone(),
+        message: e.to_string(),
+    })?;
+    write_text(&stamp, &spec.text)?;
+    let todo: Vec<usize> = (0..plans.len())
+        .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
+        .filter(|&i| !finished(out, i))
+        .collect();
+    let jobs = opts.jobs.clamp(1, todo.len().max(1));
+    let next = AtomicUsize::new(0);
+    let first_error: Mutex<Option<SweepError>> = Mutex::new(None);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let slot = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&i) = todo.get(slot) else { break };
+                    let result = run_case(spec, &plans[i], out, i, opts);
+                    if let Err(e) = result {
+                        first_error
+                            .lock()
+                            .unwrap_or_else(PoisonError::into_inner)
+                            .get_or_insert(e);
+                        next.store(todo.len(), Ordering::Relaxed);
+                        break;
+                    }
+                    if opts.progress {
+                        eprintln!(
+                            "case {i}/{} done ({})",
+                            plans.len() - 1,
+                            spec.case_labels(i).join(", ")
+                        );
+                    }
+                }
+            });
+        }
+    });
+    if let Some(e) = first_error
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner)
+    {
+        return Err(e);
+    }
+    match opts.shard {
+        Some((k, n)) => write_text(
+            &out.join("shard.toml"),
+            &format!("fingerprint = \"{fp}\"\nshard = {k}\nshards = {n}\n"),
+        )?,
+        None => write_results(spec, out)?,
+    }
+    Ok(todo)
+}
+
+/// Runs one case as an ordinary campaign; an FMU failure ends the case as failed, not the sweep.
+fn run_case(
+    spec: &SweepSpec,
+    (scenario, text): &(Scenario, String),
+    out: &Path,
+    i: usize,
+    opts: &SweepOptions,
+) -> Result<(), SweepError> {
+    let dir = case_dir(out, i);
+    let mut fmus = Vec::new();
+    for f in &scenario.fmus {
+        fmus.push(Fmu::open(&f.path).map_err(|e| SweepError::Fmu {
+            file: spec.source.clone(),
+            fmu: f.path.clone(),
+            message: e.to_string(),
+        })?);
+    }
+    let copts = CampaignOptions {
+        out_dir: dir.clone(),
+        resume: true,
+        fmu_logging: opts.fmu_logging,
+        progress: false,
+        stop_after: None,
+        // Cases resume in their own folders; the sweep itself refuses a foreign folder.
+        force: false,
+        memory_limit_mib: None,
+        crash_at: None,
+    };
+    let outcome = match run_campaign(scenario, text, fmus, &copts) {
+        Ok(_) => "status = \"completed\"\n".to_string(),
+        Err(CampaignError::Master(e)) => {
+            format!("status = \"failed\"\nmessage = {:?}\n", e.to_string())
+        }
+        Err(e) => {
+            return Err(SweepError::Campaign {
+                case: i,
+                source: Box::new(e),
+            });
+        }
+    };
+    fs::create_dir_all(&dir).map_err(|e| SweepError::Dir {
+        dir: dir.clone(),
+        message: e.to_string(),
+    })?;
+    write_text(&dir.join("outcome.toml"), &outcome)?;
+    Ok(())
+}
+
+#[derive(Debug, serde::Deserialize)]
+struct ShardStamp {
+    fingerprint: String,
+    shard: usize,
+    shards: usize,
+}
+
+/// Combines shard directories of `spec` into `out`: copies every case and writes the results
+/// exactly as an unsharded run would.
+pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(), SweepError> {
+    let fp = fingerprint(spec);
+    let mut seen: Vec<Option<&Path>> = Vec::new();
+    let mut total = None;
+    for dir in shard_dirs {
+        let stamp_path = dir.join("shard.toml");
+        let text = fs::read_to_string(&stamp_path).map_err(|e| {
+            SweepError::Merge(format!(
+                "{}: {e} (is it a finished shard?)",
+                stamp_path.display()
+            ))
+        })?;
+        let s: ShardStamp = toml::from_str(&text)
+            .map_err(|e| SweepError::Merge(format!("{}: {}", stamp_path.display(), e.message())))?;
+        if s.fingerprint != fp {
+            return Err(SweepError::Merge(format!(
+                "{} is a shard of a different sweep (or of an edited {})",
+                dir.display(),
+                spec.source.display()
+            )));
+        }
+        if *total.get_or_insert(s.shards) != s.shards || s.shard >= s.shards {
+            return Err(SweepError::Merge(format!(
+                "{} is shard {}/{}, the others are of {} shards",
+                dir.display(),
+                s.shard,
+                s.shards,
+                total.unwrap_or(0)
+            )));
+        }
+        seen.resize(s.shards, None);
+        if let Some(prev) = seen[s.shard] {
+            return Err(SweepError::Merge(format!(
+                "shard {}/{} is given twice: {} and {}",
+                s.shard,
+                s.shards,
+                prev.display(),
+                dir.display()
+            )));
+        }
+        seen[s.shard] = Some(dir);
+    }
+    let missing: Vec<String> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.is_none())
+        .map(|(k, _)| format!("{k}/{}", seen.len()))
+        .collect();
+    if seen.is_empty() || !missing.is_empty() {
+        return Err(SweepError::Merge(format!(
+            "shards {} are missing",
+            if seen.is_empty() {
+                "(all)".into()
+            } else {
+                missing.join(", ")
+            }
+        )));
+    }
+    let n = seen.len();
+    for i in 0..spec.cases.len() {
+        let from = case_dir(seen[i % n].unwrap_or(Path::new(".")), i);
+        if !from.join("outcome.toml").exists() {
+            return Err(SweepError::Merge(format!(
+                "case {i} has not finished in {}",
+                from.display()
+            )));
+        }
+    }
+    fs::create_dir_all(out.join("cases")).map_err(|e| SweepError::Dir {
+        dir: out.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    write_text(&out.join("sweep.toml"), &spec.text)?;
+    for i in 0..spec.cases.len() {
+        let from = case_dir(seen[i % n].unwrap_or(Path::new(".")), i);
+        let to = case_dir(out, i);
+        if from != to {
+            copy_tree(&from, &to)?;
+        }
+    }
+    write_results(spec, out)
+}
+
+/// Copies a case directory (files atomically, so an interrupted merge leaves no torn file).
+fn copy_tree(from: &Path, to: &Path) -> Result<(), SweepError> {
+    let io = |p: &Path, e: std::io::Error| SweepError::Dir {
+        dir: p.to_path_buf(),
+        message: e.to_string(),
+    };
+    fs::create_dir_all(to).map_err(|e| io(to, e))?;
+    for entry in fs::read_dir(from).map_err(|e| io(from, e))? {
+        let entry = entry.map_err(|e| io(from, e))?;
+        let src = entry.path();
+        let dst = to.join(entry.file_name());
+        if src.is_dir() {
+            copy_tree(&src, &dst)?;
+        } else {
+            let bytes = fs::read(&src).map_err(|e| io(&src, e))?;
+            write_atomic(&dst, |w| w.write_all(&bytes))?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,758 @@
+//! The sweep file: a base scenario plus axes, validated once into a [`SweepSpec`] whose
+//! cases are fixed before anything runs (so shards of one sweep agree on every case).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal, Uniform};
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::scenario::line_of;
+
+/// A sweep-file problem: file, line (when known) and message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}{}: {message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct SweepSpecError {
+    pub file: PathBuf,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+/// Most cases one sweep may hold; a typo in a grid should not plan a billion campaigns.
+pub const MAX_CASES: usize = 1_000_000;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSweep {
+    base: Spanned<String>,
+    #[serde(default)]
+    trials: Option<Spanned<usize>>,
+    #[serde(default)]
+    combine: Option<Spanned<String>>,
+    #[serde(default)]
+    seed: u64,
+    #[serde(default)]
+    record: bool,
+    #[serde(rename = "axis")]
+    axes: Vec<Spanned<RawAxis>>,
+    #[serde(default)]
+    seeds: Option<Spanned<RawSeeds>>,
+    #[serde(default)]
+    report: Option<RawReport>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAxis {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    parameters: Vec<String>,
+    #[serde(default)]
+    memory: Option<String>,
+    #[serde(default)]
+    setting: Option<String>,
+    #[serde(default)]
+    scale: bool,
+    #[serde(default)]
+    values: Option<Vec<toml::Value>>,
+    #[serde(default)]
+    labels: Option<Vec<String>>,
+    #[serde(default)]
+    linspace: Option<(f64, f64, usize)>,
+    #[serde(default)]
+    logspace: Option<(f64, f64, usize)>,
+    #[serde(default)]
+    uniform: Option<(f64, f64)>,
+    #[serde(default)]
+    normal: Option<(f64, f64)>,
+    #[serde(default)]
+    lhs: Option<(f64, f64)>,
+    #[serde(default)]
+    samples: Option<usize>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSeeds {
+    parameter: String,
+    #[serde(default)]
+    base: i64,
+    #[serde(default = "default_stride")]
+    stride: i64,
+    #[serde(default)]
+    per_trial: Option<i64>,
+}
+
+fn default_stride() -> i64 {
+    1_000_000
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawReport {
+    #[serde(default)]
+    threshold: Option<f64>,
+}
+
+/// What an axis changes in the base scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// FMU parameters `fmu.name` (several move together, e.g. both friction terms).
+    Parameters(Vec<(String, String)>),
+    /// A key of the `[memory.update]` table of the channel whose `to` is `channel`;
+    /// `setting = "update"` replaces the whole table (an empty table removes it).
+    Memory { channel: String, setting: String },
+}
+
+/// One axis: its column name, target, whether values scale the base value, and its values
+/// in case order (after combination they are per case, see [`SweepSpec::cases`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    pub name: String,
+    pub target: Target,
+    pub scale: bool,
+    pub values: Vec<toml::Value>,
+    /// Text for each value in tables and figures (a label, or the value itself).
+    pub labels: Vec<String>,
+    /// Whether the values are numbers (plotted on an axis) rather than categories.
+    pub numeric: bool,
+    /// Whether the values form a grid (not random draws): heatmaps need two grid axes.
+    pub grid: bool,
+    /// Line of the axis in the sweep file.
+    pub line: Option<usize>,
+    /// How the values were made, for the report (e.g. "lhs [0.7, 1.3], 16 draws").
+    pub source: String,
+}
+
+/// Per-case seeds: `parameter` gets `base + case·stride`, as a per-trial value
+/// `{ base, per_trial }` when `per_trial` is set (or replacing the `base` of a per-trial value
+/// the base scenario gives it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Seeds {
+    pub fmu: String,
+    pub parameter: String,
+    pub base: i64,
+    pub stride: i64,
+    /// Step of a per-trial value `{ base, per_trial }` set for the case (fresh noise in
+    /// every trial); `None` sets one value for the whole case.
+    pub per_trial: Option<i64>,
+}
+
+/// How axes combine into cases.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Combine {
+    /// Every combination, the first axis varying slowest.
+    Product,
+    /// Case i takes value i of every axis (all axes equally long).
+    Zip,
+}
+
+/// A validated sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepSpec {
+    pub source: PathBuf,
+    /// The sweep file's text, part of the sweep's fingerprint.
+    pub text: String,
+    pub base: PathBuf,
+    pub base_text: String,
+    pub trials: Option<usize>,
+    pub record: bool,
+    pub combine: Combine,
+    pub axes: Vec<Axis>,
+    pub seeds: Option<Seeds>,
+    /// Max-error level, m, whose final-trial fraction the report gives. Default 5e-5 (0.05 mm).
+    pub threshold: f64,
+    /// Value index of every axis for every case.
+    pub cases: Vec<Vec<usize>>,
+}
+
+impl SweepSpec {
+    /// Reads and validates a sweep file and its base scenario's text (the scenario itself is
+    /// validated per case, against the FMUs).
+    pub fn load(file: &Path) -> Result<SweepSpec, SweepSpecError> {
+        let text = std::fs::read_to_string(file).map_err(|e| SweepSpecError {
+            file: file.to_path_buf(),
+            line: None,
+            message: format!("cannot read the sweep file: {e}"),
+        })?;
+        Self::parse(&text, file)
+    }
+
+    /// Validates sweep `text` read from `file`.
+    pub fn parse(text: &str, file: &Path) -> Result<SweepSpec, SweepSpecError> {
+        let err = |span: std::ops::Range<usize>, message: String| SweepSpecError {
+            file: file.to_path_buf(),
+            line: (span.end > 0).then(|| line_of(text, span.start)),
+            message,
+        };
+        let raw: RawSweep = toml::from_str(text).map_err(|e| SweepSpecError {
+            file: file.to_path_buf(),
+            line: e.span().map(|s| line_of(text, s.start)),
+            message: e.message().to_string(),
+        })?;
+        let base = file
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(raw.base.get_ref());
+        let base_text = std::fs::read_to_string(&base).map_err(|e| {
+            err(
+                raw.base.span(),
+                format!("cannot read the base scenario {}: {e}", base.display()),
+            )
+        })?;
+        let base_doc: toml::Table = toml::from_str(&base_text).map_err(|e| {
+            err(
+                raw.base.span(),
+                format!("base scenario {}: {}", base.display(), e.message()),
+            )
+        })?;
+        if let Some(t) = &raw.trials
+            && *t.get_ref() == 0
+        {
+            return Err(err(t.span(), "trials must be at least 1".into()));
+        }
+        let combine = match raw.combine.as_ref().map(|c| c.get_ref().as_str()) {
+            None | Some("product") => Combine::Product,
+            Some("zip") => Combine::Zip,
+            Some(other) => {
+                let span = raw.combine.as_ref().map(Spanned::span).unwrap_or(0..0);
+                return Err(err(
+                    span,
+                    format!("combine = {other:?}: use \"product\" or \"zip\""),
+                ));
+            }
+        };
+        if raw.axes.is_empty() {
+            return Err(err(0..0, "no [[axis]] entries".into()));
+        }
+        let fmu_names = fmu_names(&base_doc);
+        let channels = memory_channels(&base_doc);
+        let mut axes = Vec::new();
+        let mut names = BTreeSet::new();
+        for (i, a) in raw.axes.iter().enumerate() {
+            let mut axis = build_axis(a.get_ref(), raw.seed, i, &fmu_names, &channels)
+                .map_err(|m| err(a.span(), format!("axis {}: {m}", i + 1)))?;
+            axis.line = Some(line_of(text, a.span().start));
+            if !names.insert(axis.name.clone()) {
+                return Err(err(
+                    a.span(),
+                    format!("axis {}: the name {:?} is used twice", i + 1, axis.name),
+                ));
+            }
+            axes.push(axis);
+        }
+        let lens: Vec<usize> = axes.iter().map(|a| a.values.len()).collect();
+        let cases = match combine {
+            Combine::Zip => {
+                if lens.iter().any(|&n| n != lens[0]) {
+                    let span = raw.combine.as_ref().map(Spanned::span).unwrap_or(0..0);
+                    return Err(err(
+                        span,
+                        format!("combine = \"zip\" needs axes of one length; they have {lens:?}"),
+                    ));
+                }
+                (0..lens[0]).map(|i| vec![i; lens.len()]).collect()
+            }
+            Combine::Product => {
+                // Grid axes combine with each other; random axes are one Monte Carlo
+                // sample together (draw j of every random axis is one plant variant), and
+                // that sample combines with the grids.
+                let mut factors: Vec<Vec<usize>> = Vec::new();
+                let mut random: Option<usize> = None;
+                for (a, axis) in axes.iter().enumerate() {
+                    if axis.grid {
+                        factors.push(vec![a]);
+                    } else if let Some(f) = random {
+                        if lens[a] != lens[factors[f][0]] {
+                            return Err(err(
+                                0..0,
+                                format!(
+                                    "random axes are drawn together and need one `samples`; \
+                                     {:?} has {} and {:?} has {}",
+                                    axes[factors[f][0]].name,
+                                    lens[factors[f][0]],
+                                    axis.name,
+                                    lens[a]
+                                ),
+                            ));
+                        }
+                        factors[f].push(a);
+                    } else {
+                        random = Some(factors.len());
+                        factors.push(vec![a]);
+                    }
+                }
+                let sizes: Vec<usize> = factors.iter().map(|f| lens[f[0]]).collect();
+                let total = sizes
+                    .iter()
+                    .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+                    .filter(|&n| n <= MAX_CASES)
+                    .ok_or_else(|| {
+                        err(
+                            0..0,
+                            format!("the axes {lens:?} make more than {MAX_CASES} cases"),
+                        )
+                    })?;
+                (0..total)
+                    .map(|mut c| {
+                        let mut idx = vec![0; lens.len()];
+                        for (f, &n) in factors.iter().zip(&sizes).rev() {
+                            for &a in f {
+                                idx[a] = c % n;
+                            }
+                            c /= n;
+                        }
+                        idx
+                    })
+                    .collect()
+            }
+        };
+        let seeds = match &raw.seeds {
+            None => None,
+            Some(s) => {
+                let r = s.get_ref();
+                let (fmu, parameter) = split_target(&r.parameter, &fmu_names)
+                    .map_err(|m| err(s.span(), format!("seeds: {m}")))?;
+                if r.stride == 0 {
+                    return Err(err(s.span(), "seeds.stride must not be 0".into()));
+                }
+                Some(Seeds {
+                    fmu,
+                    parameter,
+                    base: r.base,
+                    stride: r.stride,
+                    per_trial: r.per_trial,
+                })
+            }
+        };
+        let threshold = raw.report.and_then(|r| r.threshold).unwrap_or(5e-5);
+        if !(threshold.is_finite() && threshold > 0.0) {
+            return Err(err(
+                0..0,
+                format!("report.threshold = {threshold} must be positive"),
+            ));
+        }
+        Ok(SweepSpec {
+            source: file.to_path_buf(),
+            text: text.to_string(),
+            base,
+            base_text,
+            trials: raw.trials.map(Spanned::into_inner),
+            record: raw.record,
+            combine,
+            axes,
+            seeds,
+            threshold,
+            cases,
+        })
+    }
+
+    /// Labels of case `i`, one per axis.
+    pub fn case_labels(&self, i: usize) -> Vec<&str> {
+        self.axes
+            .iter()
+            .zip(&self.cases[i])
+            .map(|(a, &v)| a.labels[v].as_str())
+            .collect()
+    }
+}
+
+fn fmu_names(doc: &toml::Table) -> Vec<String> {
+    doc.get("fmu")
+        .and_then(toml::Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|f| f.get("name")?.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn memory_channels(doc: &toml::Table) -> Vec<String> {
+    doc.get("memory")
+        .and_then(toml::Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|m| m.get("to")?.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// `fmu.parameter` → (fmu, parameter), the FMU being one the base scenario names.
+fn split_target(target: &str, fmus: &[String]) -> Result<(String, String), String> {
+    let Some((fmu, name)) = target.split_once('.') else {
+        return Err(format!(
+            "{target:?} is not of the form \"fmu.parameter\" (e.g. \"plant.platform_mass\")"
+        ));
+    };
+    if !fmus.iter().any(|f| f == fmu) {
+        return Err(format!(
+            "{target:?}: the base scenario has no FMU {fmu:?} (it has {fmus:?})"
+        ));
+    }
+    if name.is_empty() {
+        return Err(format!("{target:?} names no parameter"));
+    }
+    Ok((fmu.to_string(), name.to_string()))
+}
+
+/// Keys of the `[memory.update]` table an axis may set.
+const MEMORY_SETTINGS: [&str; 7] = [
+    "update",
+    "filter",
+    "order",
+    "cutoff",
+    "lead",
+    "forgetting",
+    "gain",
+];
+
+fn build_axis(
+    a: &RawAxis,
+    seed: u64,
+    index: usize,
+    fmus: &[String],
+    channels: &[String],
+) -> Result<Axis, String> {
+    let target = match (&a.memory, a.parameters.is_empty()) {
+        (Some(_), false) => return Err("give either `parameters` or `memory`, not both".into()),
+        (None, true) => return Err("give `parameters = [\"fmu.name\", ...]` or `memory`".into()),
+        (None, false) => Target::Parameters(
+            a.parameters
+                .iter()
+                .map(|p| split_target(p, fmus))
+                .collect::<Result<_, _>>()?,
+        ),
+        (Some(ch), true) => {
+            if !channels.iter().any(|c| c == ch) {
+                return Err(format!(
+                    "the base scenario has no [[memory]] channel to {ch:?} (it has {channels:?})"
+                ));
+            }
+            let setting = a
+                .setting
+                .clone()
+                .ok_or("a memory axis needs `setting` (e.g. \"cutoff\")")?;
+            if !MEMORY_SETTINGS.contains(&setting.as_str()) {
+                return Err(format!(
+                    "setting = {setting:?} is not one of {MEMORY_SETTINGS:?}"
+                ));
+            }
+            Target::Memory {
+                channel: ch.clone(),
+                setting,
+            }
+        }
+    };
+    if a.setting.is_some() && a.memory.is_none() {
+        return Err("`setting` belongs to a memory axis".into());
+    }
+    let sources = [
+        a.values.is_some(),
+        a.linspace.is_some(),
+        a.logspace.is_some(),
+        a.uniform.is_some(),
+        a.normal.is_some(),
+        a.lhs.is_some(),
+    ];
+    if sources.iter().filter(|&&s| s).count() != 1 {
+        return Err(
+            "give exactly one of values, linspace, logspace, uniform, normal or lhs".into(),
+        );
+    }
+    let random = a.uniform.is_some() || a.normal.is_some() || a.lhs.is_some();
+    if a.samples.is_some() && !random {
+        return Err("`samples` belongs to a random axis (uniform, normal, lhs)".into());
+    }
+    let samples = || -> Result<usize, String> {
+        match a.samples {
+            Some(n) if n >= 1 => Ok(n),
+            Some(_) => Err("samples must be at least 1".into()),
+            None => Err("a random axis needs `samples`".into()),
+        }
+    };
+    let finite = |xs: &[f64]| -> Result<(), String> {
+        match xs.iter().find(|x| !x.is_finite()) {
+            Some(x) => Err(format!("{x} is not a finite number")),
+            None => Ok(()),
+        }
+    };
+    // Each axis draws from its own stream, so adding an axis leaves the others' draws alone.
+    let mut rng =
+        ChaCha8Rng::seed_from_u64(seed ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    let numbers: Option<Vec<f64>> = if let Some((lo, hi, n)) = a.linspace {
+        finite(&[lo, hi])?;
+        grid_len(n)?;
+        Some(linspace(lo, hi, n))
+    } else if let Some((lo, hi, n)) = a.logspace {
+        finite(&[lo, hi])?;
+        grid_len(n)?;
+        Some(
+            linspace(lo, hi, n)
+                .into_iter()
+                .map(|e| 10f64.powf(e))
+                .collect(),
+        )
+    } else if let Some((lo, hi)) = a.uniform {
+        finite(&[lo, hi])?;
+        let n = samples()?;
+        let d = Uniform::new_inclusive(lo, hi).map_err(|e| format!("uniform [{lo}, {hi}]: {e}"))?;
+        Some((0..n).map(|_| d.sample(&mut rng)).collect())
+    } else if let Some((mean, sd)) = a.normal {
+        finite(&[mean, sd])?;
+        let n = samples()?;
+        let d = Normal::new(mean, sd).map_err(|e| format!("normal({mean}, {sd}): {e}"))?;
+        Some((0..n).map(|_| d.sample(&mut rng)).collect())
+    } else if let Some((lo, hi)) = a.lhs {
+        finite(&[lo, hi])?;
+        if hi < lo {
+            return Err(format!(
+                "lhs [{lo}, {hi}]: the upper bound is below the lower"
+            ));
+        }
+        let n = samples()?;
+        // Latin hypercube: one draw in each of n equal strata, in a random order; with zip,
+        // independent orders per axis make the joint design a Latin hypercube.
+        let mut strata: Vec<usize> = (0..n).collect();
+        strata.shuffle(&mut rng);
+        let u = Uniform::new(0.0, 1.0).map_err(|e| e.to_string())?;
+        Some(
+            strata
+                .into_iter()
+                .map(|s| lo + (hi - lo) * (s as f64 + u.sample(&mut rng)) / n as f64)
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let source = if let Some((lo, hi, n)) = a.linspace {
+        format!("linspace [{lo}, {hi}], {n} points")
+    } else if let Some((lo, hi, n)) = a.logspace {
+        format!("logspace [1e{lo}, 1e{hi}], {n} points")
+    } else if let Some((lo, hi)) = a.uniform {
+        format!("uniform [{lo}, {hi}], {} draws", a.samples.unwrap_or(0))
+    } else if let Some((mean, sd)) = a.normal {
+        format!(
+            "normal (mean {mean}, sd {sd}), {} draws",
+            a.samples.unwrap_or(0)
+        )
+    } else if let Some((lo, hi)) = a.lhs {
+        format!(
+            "Latin hypercube [{lo}, {hi}], {} draws",
+            a.samples.unwrap_or(0)
+        )
+    } else {
+        String::new()
+    };
+    let (values, numeric) = match numbers {
+        Some(xs) => (xs.into_iter().map(toml::Value::Float).collect(), true),
+        None => {
+            let vs = a.values.clone().unwrap_or_default();
+            if vs.is_empty() {
+                return Err("values is empty".into());
+            }
+            let numeric = vs
+                .iter()
+                .all(|v| matches!(v, toml::Value::Float(_) | toml::Value::Integer(_)));
+            for v in &vs {
+                if let toml::Value::Float(x) = v
+                    && !x.is_finite()
+                {
+                    return Err(format!("value {x} is not finite"));
+                }
+            }
+            (vs, numeric)
+        }
+    };
+    if a.scale {
+        if !numeric {
+            return Err("scale = true needs numeric values".into());
+        }
+        if !matches!(target, Target::Parameters(_)) {
+            return Err("scale = true applies to FMU parameters".into());
+        }
+    }
+    let labels = match &a.labels {
+        Some(l) if l.len() != values.len() => {
+            return Err(format!("{} labels for {} values", l.len(), values.len()));
+        }
+        Some(l) => l.clone(),
+        None => values.iter().map(value_label).collect(),
+    };
+    let name = a.name.clone().unwrap_or_else(|| match &target {
+        Target::Parameters(ps) => ps
+            .iter()
+            .map(|(f, p)| format!("{f}.{p}"))
+            .collect::<Vec<_>>()
+            .join("+"),
+        Target::Memory { channel, setting } => format!("{channel}.{setting}"),
+    });
+    if name.is_empty() || name.contains([',', '"', '\n']) {
+        return Err(format!(
+            "axis name {name:?} must be non-empty, without commas or quotes"
+        ));
+    }
+    Ok(Axis {
+        name,
+        target,
+        scale: a.scale,
+        values,
+        labels,
+        numeric,
+        grid: !random,
+        line: None,
+        source,
+    })
+}
+
+fn grid_len(n: usize) -> Result<(), String> {
+    if n == 0 {
+        Err("a grid needs at least one point".into())
+    } else {
+        Ok(())
+    }
+}
+
+/// `n` points from `lo` to `hi` inclusive, as numpy's `linspace`.
+fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if n == 1 {
+        return vec![lo];
+    }
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// Compact text of a value for tables: numbers in shortest round-trip form.
+pub fn value_label(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Float(x) => x.to_string(),
+        toml::Value::Integer(i) => i.to_string(),
+        toml::Value::Boolean(b) => b.to_string(),
+        other => other.to_string().replace('\n', " "),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(sweep: &str) -> Result<SweepSpec, SweepSpecError> {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("base.toml"),
+            "step_size = 0.001\nstop_time = 1.0\n[[fmu]]\nname = \"plant\"\npath = \"p.fmu\"\n\
+             [[fmu]]\nname = \"controller\"\npath = \"c.fmu\"\n\
+             [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n",
+        )
+        .unwrap();
+        let file = dir.path().join("sweep.toml");
+        SweepSpec::parse(sweep, &file)
+    }
+
+    #[test]
+    fn product_orders_cases_with_the_first_axis_slowest() {
+        let s = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0, 2.0]\n\
+             [[axis]]\nmemory = \"controller.memory\"\nsetting = \"cutoff\"\nlinspace = [5.0, 10.0, 3]\n",
+        )
+        .unwrap();
+        assert_eq!(s.cases.len(), 6);
+        assert_eq!(s.cases[0], vec![0, 0]);
+        assert_eq!(s.cases[1], vec![0, 1]);
+        assert_eq!(s.cases[5], vec![1, 2]);
+        assert_eq!(s.axes[1].labels, vec!["5", "7.5", "10"]);
+    }
+
+    #[test]
+    fn random_axes_form_one_sample_that_combines_with_the_grids() {
+        let s = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0, 2.0]\n\
+             [[axis]]\nparameters = [\"plant.gravity\"]\nuniform = [9.0, 10.0]\nsamples = 3\n\
+             [[axis]]\nparameters = [\"plant.cylinder_mass\"]\nnormal = [10.0, 1.0]\nsamples = 3\n",
+        )
+        .unwrap();
+        assert_eq!(s.cases.len(), 6);
+        assert!(s.cases.iter().all(|c| c[1] == c[2]), "{:?}", s.cases);
+        assert_eq!(s.cases[3], vec![1, 0, 0]);
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.gravity\"]\nuniform = [9.0, 10.0]\nsamples = 3\n\
+             [[axis]]\nparameters = [\"plant.cylinder_mass\"]\nnormal = [10.0, 1.0]\nsamples = 4\n",
+        )
+        .unwrap_err();
+        assert!(e.message.contains("one `samples`"), "{e}");
+    }
+
+    #[test]
+    fn latin_hypercube_puts_one_draw_in_every_stratum() {
+        let s = spec(
+            "base = \"base.toml\"\ncombine = \"zip\"\nseed = 7\n[[axis]]\nparameters = [\"plant.rod_mass\"]\n\
+             lhs = [0.0, 1.0]\nsamples = 20\n",
+        )
+        .unwrap();
+        let mut strata: Vec<usize> = s.axes[0]
+            .values
+            .iter()
+            .map(|v| (v.as_float().unwrap() * 20.0).floor() as usize)
+            .collect();
+        strata.sort_unstable();
+        assert_eq!(strata, (0..20).collect::<Vec<_>>());
+        // The same seed draws the same design.
+        let again = spec(
+            "base = \"base.toml\"\ncombine = \"zip\"\nseed = 7\n[[axis]]\nparameters = [\"plant.rod_mass\"]\n\
+             lhs = [0.0, 1.0]\nsamples = 20\n",
+        )
+        .unwrap();
+        assert_eq!(s.axes[0].values, again.axes[0].values);
+    }
+
+    #[test]
+    fn bad_axes_name_the_line() {
+        let cases = [
+            (
+                "[[axis]]\nparameters = [\"robot.mass\"]\nvalues = [1.0]\n",
+                "no FMU \"robot\"",
+            ),
+            (
+                "[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = []\n",
+                "values is empty",
+            ),
+            (
+                "[[axis]]\nparameters = [\"plant.rod_mass\"]\nuniform = [0.0, 1.0]\n",
+                "needs `samples`",
+            ),
+            (
+                "[[axis]]\nmemory = \"controller.x\"\nsetting = \"cutoff\"\nvalues = [1.0]\n",
+                "no [[memory]] channel",
+            ),
+            (
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"cutof\"\nvalues = [1.0]\n",
+                "is not one of",
+            ),
+            (
+                "[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\nlinspace = [0.0, 1.0, 2]\n",
+                "exactly one",
+            ),
+        ];
+        for (axis, want) in cases {
+            let e = spec(&format!("base = \"base.toml\"\n{axis}")).unwrap_err();
+            assert_eq!(e.line, Some(2), "{axis}: {e}");
+            assert!(e.message.contains(want), "{axis}: {e}");
+        }
+        let e = spec("base = \"missing.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n")
+            .unwrap_err();
+        assert_eq!(e.line, Some(1));
+        assert!(e.message.contains("cannot read the base scenario"), "{e}");
+        let e = spec("base = \"base.toml\"\ncombine = \"zip\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n\
+                      [[axis]]\nparameters = [\"plant.gravity\"]\nvalues = [1.0, 2.0]\n")
+            .unwrap_err();
+        assert!(e.message.contains("one length"), "{e}");
+    }
+}

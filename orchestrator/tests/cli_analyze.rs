@@ -1,0 +1,164 @@
+//! `orchestrator analyze`: the summary, CSV and SVG it writes for a circle scenario, the
+//! command-line overrides, and clear errors for bad settings (nothing written then).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{built_fmu, orchestrator};
+
+/// The paper's circle under HLCS, with an optional `[memory.update]` table body.
+fn circle(dir: &Path, update: Option<&str>) -> PathBuf {
+    let mut text = format!(
+        r#"step_size = 0.001
+stop_time = 5.0
+trials = 50
+
+[[fmu]]
+name = "controller"
+path = {:?}
+[fmu.parameters]
+trajectory = "circle"
+duration = 5.0
+
+[[fmu]]
+name = "plant"
+path = {:?}
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+"#,
+        built_fmu("HlcsController"),
+        built_fmu("CkcmPlant"),
+    );
+    if let Some(u) = update {
+        text.push_str("[memory.update]\n");
+        text.push_str(u);
+    }
+    let path = dir.join("circle.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn analyze(scenario: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    orchestrator()
+        .arg("analyze")
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn robust_setting_on_the_circle() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = circle(dir.path(), None);
+    let out = dir.path().join("out");
+    let o = analyze(
+        &scenario,
+        &out,
+        &["--order", "4", "--cutoff", "8", "--lead", "25"],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("Butterworth order 4 cutoff 8 Hz") && stdout.contains("lead δ = 25"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("Prediction (sustained masses): **converges**"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("Frozen worst case (every pose, conservative): **diverges**"),
+        "{stdout}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("summary.md")).unwrap(),
+        stdout
+    );
+    // One row per frequency, 2 + 3 × 6 columns, factors finite and non-negative.
+    let csv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap().split(',').count(), 20);
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.len() > 1000);
+    assert!(rows.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+    // The frequencies rise to just below Nyquist; the filter gain falls from 1 to ~0.
+    assert!(rows.windows(2).all(|w| w[1][0] > w[0][0]));
+    assert!(rows.last().unwrap()[0] < 500.0 && rows.last().unwrap()[0] > 499.0);
+    assert!((rows[0][1] - 1.0).abs() < 1e-9 && rows.last().unwrap()[1] < 1e-9);
+    let svg = std::fs::read_to_string(out.join("convergence.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("mode 6"), "svg");
+}
+
+#[test]
+fn overrides_change_the_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = circle(dir.path(), None);
+    let out = dir.path().join("out");
+    // The paper's update diverges; gains × 1.5 diverge even with the robust setting.
+    for extra in [
+        &[][..],
+        &[
+            "--order",
+            "4",
+            "--cutoff",
+            "8",
+            "--lead",
+            "25",
+            "--gain-scale",
+            "1.5",
+        ][..],
+    ] {
+        let o = analyze(&scenario, &out, extra);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            stdout.contains("Prediction (sustained masses): **diverges**"),
+            "{extra:?}: {stdout}"
+        );
+    }
+}
+
+#[test]
+fn bad_settings_are_named_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = circle(dir.path(), None);
+    let out = dir.path().join("out");
+    for (extra, expected) in [
+        (&["--cutoff", "500"][..], "cutoff = 500"),
+        (&["--cutoff", "NaN"][..], "cutoff = NaN"),
+        (&["--cutoff", "8", "--order", "0"][..], "order = 0"),
+        (
+            &["--lead", "5000"][..],
+            "lead = 5000 samples must be below the 5000",
+        ),
+        (&["--order", "4"][..], "--order needs a cutoff"),
+        (&["--gain", "inf"][..], "gain = inf"),
+        (&["--gain-scale=-1"][..], "--gain-scale = -1"),
+    ] {
+        let o = analyze(&scenario, &out, extra);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{extra:?} should fail");
+        assert!(stderr.contains(expected), "{extra:?}: {stderr}");
+        assert!(!out.exists(), "{extra:?} wrote {}", out.display());
+    }
+}

@@ -1,0 +1,313 @@
+//! Campaign folders that cannot be lost: one run per folder (a lock naming its holder), no
+//! new run over an existing campaign without `--force` (and then only once its first trial
+//! succeeded), a memory estimate refused before anything is allocated, memory files with a
+//! checksum, and a kill at every file operation of a campaign resumed to the very bytes of an
+//! uninterrupted run. The foreign test FMU keeps these campaigns to milliseconds.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use common::{foreign_fmu, orchestrator};
+use orchestrator::campaign::{DirLock, LOCK_FILE};
+
+/// A 3-trial campaign whose memory (the last trial's x, fed back as drive) changes every
+/// trial, so a resume that lost or garbled the memory shows in the results.
+fn scenario(dir: &Path, extra: &str) -> PathBuf {
+    let fmu = foreign_fmu(dir);
+    let path = dir.join("osc.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"step_size = 0.01
+stop_time = 0.5
+trials = 3
+{extra}
+[[fmu]]
+name = "osc"
+path = "{}"
+[fmu.parameters]
+x0 = 0.1
+[[memory]]
+from = "osc.x"
+to = "osc.drive"
+[record]
+variables = ["osc.x", "osc.v"]
+"#,
+            fmu.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn run(scenario: &Path, out: &Path, args: &[&str]) -> std::process::Output {
+    orchestrator()
+        .arg("run")
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Every file under `dir`, relative path → bytes.
+fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                );
+            }
+        }
+    }
+    out
+}
+
+fn assert_same_tree(expected: &Path, actual: &Path, when: &str) {
+    let (a, b) = (tree(expected), tree(actual));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "file lists differ {when}"
+    );
+    for (k, v) in &a {
+        assert!(v == &b[k], "{} differs {when}", k.display());
+    }
+}
+
+#[test]
+fn a_locked_folder_is_refused_naming_the_holder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    let lock = DirLock::acquire(&out).unwrap();
+    for args in [&[][..], &["--resume"][..], &["--force"][..]] {
+        let o = run(&s, &out, args);
+        assert!(!o.status.success(), "{args:?}");
+        let err = stderr(&o);
+        assert!(err.contains("is in use by another run"), "{err}");
+        assert!(
+            err.contains(&format!("pid {}", std::process::id())),
+            "{err}"
+        );
+        assert!(err.contains("on host"), "{err}");
+    }
+    // The refused runs wrote nothing.
+    assert_eq!(
+        tree(&out).into_keys().collect::<Vec<_>>(),
+        [PathBuf::from(LOCK_FILE)]
+    );
+    drop(lock);
+    let o = run(&s, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !out.join(LOCK_FILE).exists(),
+        "a finished run removes its lock"
+    );
+}
+
+#[test]
+fn a_new_run_never_destroys_an_existing_campaign() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &[]).status.success());
+    let before = tree(&out);
+
+    let o = run(&s, &out, &[]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("already holds a campaign (3 completed trials)"),
+        "{err}"
+    );
+    assert!(err.contains("--resume") && err.contains("--force"), "{err}");
+    assert_eq!(
+        tree(&out),
+        before,
+        "a refused run must not touch the folder"
+    );
+
+    // Forced, but the new first trial fails (x beyond the end stop): the old campaign stays.
+    let failing = std::fs::read_to_string(&s)
+        .unwrap()
+        .replace("x0 = 0.1", "x0 = 0.1\nx_limit = 0.01");
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, failing).unwrap();
+    let o = run(&bad, &out, &["--force"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("end stop"), "{}", stderr(&o));
+    assert_eq!(
+        tree(&out),
+        before,
+        "a failed forced run must keep the old campaign"
+    );
+
+    // Forced and succeeding: the folder holds exactly the new campaign.
+    let other = tmp.path().join("other.toml");
+    std::fs::write(
+        &other,
+        std::fs::read_to_string(&s)
+            .unwrap()
+            .replace("trials = 3", "trials = 2"),
+    )
+    .unwrap();
+    let fresh = tmp.path().join("fresh");
+    assert!(run(&other, &fresh, &[]).status.success());
+    let o = run(&other, &out, &["--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&fresh, &out, "after --force");
+
+    // Other files in the folder also stop a new run.
+    let mine = tmp.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("notes.txt"), b"keep me").unwrap();
+    let o = run(&s, &mine, &[]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("already holds files (notes.txt)"));
+}
+
+#[test]
+fn a_campaign_beyond_the_memory_limit_is_refused_with_the_scenario_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    // 10^8 steps of 0.01 s: about 11 GiB for one recorded trial.
+    let huge = tmp.path().join("huge.toml");
+    std::fs::write(
+        &huge,
+        std::fs::read_to_string(&s)
+            .unwrap()
+            .replace("stop_time = 0.5", "stop_time = 1000000"),
+    )
+    .unwrap();
+    let o = run(&huge, &out, &[]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("huge.toml:2:"), "{err}");
+    assert!(err.contains("100000000 steps per trial"), "{err}");
+    assert!(
+        err.contains("more than the default limit of 4096 MiB"),
+        "{err}"
+    );
+    assert!(err.contains("--memory-limit-mib"), "{err}");
+    assert!(!out.exists());
+
+    // The limit is the user's: a scenario key (with its line) and a flag that overrides it.
+    let tight = scenario(tmp.path(), "memory_limit_mib = 0");
+    let o = run(&tight, &out, &[]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("the scenario's memory_limit_mib of 0 MiB"),
+        "{err}"
+    );
+    let o = run(&tight, &out, &["--memory-limit-mib", "16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Byte offset of the first memory value in a format-2 memory file with one channel.
+const FIRST_VALUE: usize = 8 + 8 + 8;
+
+#[test]
+fn a_corrupted_memory_file_is_refused_on_resume() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let file = out.join("memory/after_trial_000.f64");
+    let good = std::fs::read(&file).unwrap();
+    assert!(good.starts_with(b"CKCMMEM2"), "format version in the magic");
+
+    // A NaN patched in: the checksum no longer matches.
+    let mut bytes = good.clone();
+    bytes[FIRST_VALUE + 8..FIRST_VALUE + 16].copy_from_slice(&f64::NAN.to_le_bytes());
+    std::fs::write(&file, &bytes).unwrap();
+    let o = run(&s, &out, &["--resume"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("after_trial_000.f64"), "{err}");
+    assert!(err.contains("checksum mismatch"), "{err}");
+
+    // The same NaN with a matching checksum: still refused, naming the value.
+    let n = bytes.len() - 4;
+    let crc = crc32fast::hash(&bytes[..n]);
+    bytes[n..].copy_from_slice(&crc.to_le_bytes());
+    std::fs::write(&file, &bytes).unwrap();
+    let err = stderr(&run(&s, &out, &["--resume"]));
+    assert!(
+        err.contains("memory channel 1 value 1 is NaN, not a finite number"),
+        "{err}"
+    );
+
+    // Truncated.
+    std::fs::write(&file, &good[..good.len() / 2]).unwrap();
+    let err = stderr(&run(&s, &out, &["--resume"]));
+    assert!(err.contains("checksum mismatch"), "{err}");
+
+    // Restored, the campaign resumes.
+    std::fs::write(&file, &good).unwrap();
+    let o = run(&s, &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Kills the campaign (abort: no destructor, no clean-up, like SIGKILL) at every file
+/// operation in turn, then resumes it (itself killed once more on the way when that is
+/// possible): each folder ends byte-identical to an uninterrupted run, without temporary or
+/// stale memory files.
+#[test]
+fn kill_at_every_file_operation_then_resume_is_byte_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let whole = tmp.path().join("whole");
+    let o = run(&s, &whole, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut points = 0;
+    for at in 1.. {
+        let out = tmp.path().join(format!("killed-{at}"));
+        let o = run(&s, &out, &["--crash-at", &at.to_string()]);
+        if o.status.success() {
+            break;
+        }
+        assert!(
+            o.status.code().is_none(),
+            "crash point {at} must abort: {}",
+            stderr(&o)
+        );
+        points += 1;
+        if out.exists() {
+            // Leftovers a kill inside a write can leave: a temporary file and a memory file
+            // of a trial that progress.toml does not claim.
+            std::fs::write(out.join(".summary.csv.tmp-999999-0"), b"torn").unwrap();
+            if out.join("memory").is_dir() {
+                std::fs::write(out.join("memory/after_trial_007.f64"), b"stale").unwrap();
+            }
+        }
+        // A second interruption during the resume, then the resume that finishes.
+        let _ = run(&s, &out, &["--resume", "--crash-at", "2"]);
+        let o = run(&s, &out, &["--resume"]);
+        assert!(
+            o.status.success(),
+            "resume after point {at}: {}",
+            stderr(&o)
+        );
+        assert_same_tree(&whole, &out, &format!("after a kill at point {at}"));
+    }
+    // 3 trials: removal of an old campaign, scenario, and per trial CSV, memory, summary,
+    // progress (and removal of the previous memory), then memory.csv.
+    assert!(points >= 15, "only {points} kill points were exercised");
+}

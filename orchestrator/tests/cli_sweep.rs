@@ -1,0 +1,301 @@
+//! `orchestrator sweep`: sharded and merged runs equal the plain run byte for byte, an
+//! interrupted sweep resumes without losing or repeating a case, and bad input fails before
+//! anything is written.
+
+mod common;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant, SystemTime};
+
+use common::{built_fmu, orchestrator};
+
+/// Runs a command that must fail with an `error:` line containing every needle.
+trait Fails {
+    fn fails(&mut self, needles: &[&str]);
+}
+
+impl Fails for assert_cmd::Command {
+    fn fails(&mut self, needles: &[&str]) {
+        let output = self.output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "should fail; stderr: {stderr}");
+        for n in needles {
+            assert!(stderr.contains(n), "stderr lacks {n:?}: {stderr}");
+        }
+    }
+}
+
+/// A short circle campaign (0.4 s, 3 trials) as the base, and a sweep of 6 cases over it.
+fn setup(dir: &Path, trials: usize) -> PathBuf {
+    let base = format!(
+        "step_size = 0.001\nstop_time = 0.4\ntrials = 3\n\
+         [[fmu]]\nname = \"controller\"\npath = {c:?}\n\
+         [fmu.parameters]\ntrajectory = \"circle\"\nduration = 0.4\n\
+         [[fmu]]\nname = \"plant\"\npath = {p:?}\n\
+         [[connection]]\nfrom = \"plant.length\"\nto = \"controller.length\"\n\
+         [[connection]]\nfrom = \"plant.velocity\"\nto = \"controller.velocity\"\n\
+         [[connection]]\nfrom = \"controller.force\"\nto = \"plant.force\"\n\
+         [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n\
+         [record]\nvariables = [\"controller.error\"]\n\
+         [metrics]\nerror = \"controller.error\"\n",
+        c = built_fmu("HlcsController"),
+        p = built_fmu("CkcmPlant"),
+    );
+    fs::write(dir.join("base.toml"), base).unwrap();
+    let sweep = format!(
+        "base = \"base.toml\"\ntrials = {trials}\nseed = 3\n\
+         [[axis]]\nname = \"mass\"\nparameters = [\"plant.platform_mass\"]\nscale = true\nvalues = [0.8, 1.0, 1.2]\n\
+         [[axis]]\nname = \"friction\"\nparameters = [\"plant.viscous_friction\", \"plant.coulomb_friction\"]\n\
+         scale = true\nuniform = [0.5, 2.0]\nsamples = 2\n"
+    );
+    let file = dir.join("sweep.toml");
+    fs::write(&file, sweep).unwrap();
+    file
+}
+
+/// Every result file of a sweep directory (not the case folders), by relative path.
+fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = vec![
+        (
+            "sweep.csv".to_string(),
+            fs::read(dir.join("sweep.csv")).unwrap(),
+        ),
+        (
+            "sweep-report.md".to_string(),
+            fs::read(dir.join("sweep-report.md")).unwrap(),
+        ),
+    ];
+    let mut figs: Vec<_> = fs::read_dir(dir.join("figures"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    figs.sort();
+    for f in figs {
+        files.push((
+            format!("figures/{}", f.file_name().unwrap().to_string_lossy()),
+            fs::read(&f).unwrap(),
+        ));
+    }
+    for i in 0..6 {
+        let p = format!("cases/case_{i:04}/summary.csv");
+        files.push((p.clone(), fs::read(dir.join(&p)).unwrap()));
+    }
+    files
+}
+
+#[test]
+fn shards_merge_to_the_plain_run_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 3);
+    let plain = tmp.path().join("plain");
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&plain)
+        .args(["--jobs", "2"])
+        .assert()
+        .success();
+    let reference = results(&plain);
+    let csv = String::from_utf8(reference[0].1.clone()).unwrap();
+    assert_eq!(csv.lines().count(), 7, "a header and six cases:\n{csv}");
+    assert!(
+        csv.starts_with("case,mass,friction,verdict,trials,"),
+        "{csv}"
+    );
+    // The friction draws lie in the range and the two friction parameters move together.
+    let scenario = fs::read_to_string(plain.join("cases/case_0001/scenario.toml")).unwrap();
+    let doc: toml::Table = toml::from_str(&scenario).unwrap();
+    let plant = &doc["fmu"].as_array().unwrap()[1]["parameters"];
+    let (v, c) = (
+        plant["viscous_friction"].as_float().unwrap(),
+        plant["coulomb_friction"].as_float().unwrap(),
+    );
+    assert!((v / 100.0 - c / 20.0).abs() < 1e-12, "{v} {c}");
+    assert!((50.0..=200.0).contains(&v), "{v}");
+    for n in [1usize, 3, 7] {
+        let shards: Vec<PathBuf> = (0..n)
+            .map(|k| {
+                let out = tmp.path().join(format!("n{n}_shard{k}"));
+                orchestrator()
+                    .arg("sweep")
+                    .arg(&sweep)
+                    .arg("--out")
+                    .arg(&out)
+                    .arg("--shard")
+                    .arg(format!("{k}/{n}"))
+                    .args(["--jobs", "1"])
+                    .assert()
+                    .success();
+                assert!(!out.join("sweep.csv").exists(), "a shard writes no results");
+                out
+            })
+            .collect();
+        let merged = tmp.path().join(format!("merged{n}"));
+        orchestrator()
+            .args(["sweep", "merge"])
+            .arg(&sweep)
+            .args(&shards)
+            .arg("--out")
+            .arg(&merged)
+            .assert()
+            .success();
+        let got = results(&merged);
+        for ((name, want), (_, have)) in reference.iter().zip(&got) {
+            assert!(want == have, "N = {n}: {name} differs from the plain run");
+        }
+    }
+}
+
+fn mtimes(dir: &Path) -> Vec<(usize, SystemTime)> {
+    (0..6)
+        .filter_map(|i| {
+            let p = dir.join(format!("cases/case_{i:04}/outcome.toml"));
+            Some((i, fs::metadata(p).ok()?.modified().ok()?))
+        })
+        .collect()
+}
+
+#[test]
+fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 6);
+    let plain = tmp.path().join("plain");
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&plain)
+        .assert()
+        .success();
+    let out = tmp.path().join("killed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .args(["--jobs", "1"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill once two cases have finished, while later ones run.
+    let start = Instant::now();
+    while mtimes(&out).len() < 2 && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let before = mtimes(&out);
+    assert!(
+        before.len() >= 2 && before.len() < 6,
+        "killed after {} cases",
+        before.len()
+    );
+    // Without --resume the folder is refused, and nothing in it changes.
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .fails(&["--resume"]);
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .arg("--resume")
+        .assert()
+        .success();
+    let after = mtimes(&out);
+    for (i, t) in &before {
+        assert!(
+            after.iter().any(|(j, u)| j == i && u == t),
+            "case {i} finished before the kill but was run again"
+        );
+    }
+    for ((name, want), (_, have)) in results(&plain).iter().zip(results(&out).iter()) {
+        assert!(want == have, "{name} differs after resume");
+    }
+}
+
+#[test]
+fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 2);
+    let text = fs::read_to_string(&sweep).unwrap();
+    let cases = [
+        (
+            text.replace("plant.platform_mass", "plant.platform_mas"),
+            "sweep.toml:4",
+            "has no variable \"platform_mas\"",
+        ),
+        (
+            text.replace("values = [0.8, 1.0, 1.2]", "values = []"),
+            "sweep.toml:4",
+            "values is empty",
+        ),
+        (
+            text.replace("samples = 2", "samples = 0"),
+            "sweep.toml:9",
+            "samples must be at least 1",
+        ),
+    ];
+    for (i, (bad, at, what)) in cases.iter().enumerate() {
+        let file = tmp.path().join(format!("bad{i}.toml"));
+        fs::write(&file, bad.replace("sweep.toml", "x")).unwrap();
+        let out = tmp.path().join(format!("out{i}"));
+        let at = at.replace("sweep.toml", &format!("bad{i}.toml"));
+        orchestrator()
+            .arg("sweep")
+            .arg(&file)
+            .arg("--out")
+            .arg(&out)
+            .fails(&[at.as_str(), what]);
+        assert!(!out.exists(), "case {i} wrote {}", out.display());
+    }
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .args(["--shard", "3/3"])
+        .fails(&["K must be below N"]);
+    // Shards of two different sweeps, and a missing shard, do not merge.
+    let other = tmp.path().join("other.toml");
+    fs::write(&other, text.replace("seed = 3", "seed = 4")).unwrap();
+    let shard = |file: &Path, k: usize, name: &str| {
+        let out = tmp.path().join(name);
+        orchestrator()
+            .arg("sweep")
+            .arg(file)
+            .arg("--out")
+            .arg(&out)
+            .arg("--shard")
+            .arg(format!("{k}/2"))
+            .assert()
+            .success();
+        out
+    };
+    let a0 = shard(&sweep, 0, "a0");
+    let b1 = shard(&other, 1, "b1");
+    let merged = tmp.path().join("merged");
+    orchestrator()
+        .args(["sweep", "merge"])
+        .arg(&sweep)
+        .arg(&a0)
+        .arg(&b1)
+        .arg("--out")
+        .arg(&merged)
+        .fails(&["b1 is a shard of a different sweep"]);
+    orchestrator()
+        .args(["sweep", "merge"])
+        .arg(&sweep)
+        .arg(&a0)
+        .arg("--out")
+        .arg(&merged)
+        .fails(&["shards 1/2 are missing"]);
+    assert!(
+        !merged.exists(),
+        "a failed merge wrote {}",
+        merged.display()
+    );
+}

@@ -1,0 +1,165 @@
+//! The win64 side: the cross toolchain (rustup's `x86_64-pc-windows-gnu` target and
+//! Debian's mingw-w64), installed when missing, and Wine to run the cross-built
+//! `orchestrator.exe` in the tests.
+//!
+//! Nothing here is skipped quietly: a tool that is missing and cannot be installed is an
+//! error naming the command that would install it.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use anyhow::{Context, Result, bail};
+
+use crate::{cargo, run, target_dir};
+
+/// Rust's target for 64-bit Windows with the MinGW-w64 toolchain (linker and flags in
+/// `.cargo/config.toml`).
+pub const TARGET: &str = "x86_64-pc-windows-gnu";
+
+/// The MinGW-w64 C compiler, which Rust uses as the linker (and `cc` for C code).
+const MINGW_GCC: &str = "x86_64-w64-mingw32-gcc";
+
+/// `<target dir>/x86_64-pc-windows-gnu/release`.
+pub fn release_dir(target: &Path) -> PathBuf {
+    target.join(TARGET).join("release")
+}
+
+/// Installs the rustup target and mingw-w64 when missing.
+pub fn ensure_cross_toolchain() -> Result<()> {
+    let installed = output(Command::new("rustup").args(["target", "list", "--installed"]))
+        .context("rustup is needed to add the x86_64-pc-windows-gnu target")?;
+    if !installed.lines().any(|l| l.trim() == TARGET) {
+        println!("installing the Rust target {TARGET}");
+        run(Command::new("rustup").args(["target", "add", TARGET]))?;
+    }
+    if !on_path(MINGW_GCC) {
+        apt_install(&["gcc-mingw-w64-x86-64"], MINGW_GCC)?;
+    }
+    Ok(())
+}
+
+/// Installs Wine when missing.
+pub fn ensure_wine() -> Result<()> {
+    if !on_path("wine") {
+        apt_install(&["wine", "wine64"], "wine")?;
+    }
+    Ok(())
+}
+
+/// Builds the given packages in release mode for win64.
+pub fn cargo_build(root: &Path, packages: &[&str]) -> Result<()> {
+    let mut cmd = Command::new(cargo());
+    cmd.current_dir(root)
+        .env("CARGO_TARGET_DIR", target_dir(root))
+        .args(["build", "--release", "--quiet", "--target", TARGET]);
+    for package in packages {
+        cmd.args(["-p", package]);
+    }
+    run(&mut cmd)
+}
+
+/// Cross-builds `orchestrator.exe`, copies it into `<target dir>/wine/bin` beside the
+/// test-only `bcryptprimitives.dll` stand-in (built from `tests/wine/bcryptprimitives.c`),
+/// and creates the Wine prefix `<target dir>/wine/prefix` if needed. Returns the
+/// environment the Wine tests read.
+pub fn prepare_wine(root: &Path) -> Result<Vec<(&'static str, PathBuf)>> {
+    ensure_wine()?;
+    cargo_build(root, &["orchestrator"])?;
+    let target = target_dir(root);
+    let dir = target.join("wine");
+    let bin = dir.join("bin");
+    fs::create_dir_all(&bin).with_context(|| format!("cannot create {}", bin.display()))?;
+    let exe = bin.join("orchestrator.exe");
+    let built = release_dir(&target).join("orchestrator.exe");
+    fs::copy(&built, &exe)
+        .with_context(|| format!("cannot copy {} to {}", built.display(), exe.display()))?;
+    run(Command::new(MINGW_GCC)
+        .args([
+            "-shared",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-static-libgcc",
+        ])
+        .arg("-o")
+        .arg(bin.join("bcryptprimitives.dll"))
+        .arg(root.join("tests/wine/bcryptprimitives.c"))
+        .arg("-lbcrypt"))?;
+
+    let prefix = dir.join("prefix");
+    if !prefix.join("system.reg").is_file() {
+        println!("creating the Wine prefix {}", prefix.display());
+        run(wine_command(&prefix, "wineboot").arg("--init"))?;
+        // wineboot returns before the prefix is written out; wait for its wineserver.
+        run(wine_command(&prefix, "wineserver").arg("--wait"))?;
+        if !prefix.join("system.reg").is_file() {
+            bail!(
+                "wineboot did not create the Wine prefix {}",
+                prefix.display()
+            );
+        }
+    }
+    Ok(vec![
+        ("CKCM_WINE_ORCHESTRATOR", exe),
+        ("WINEPREFIX", prefix),
+    ])
+}
+
+/// A Wine tool run in `prefix`, quiet, without the Mono and Gecko installers (a console
+/// program needs neither).
+fn wine_command(prefix: &Path, program: &str) -> Command {
+    let mut cmd = Command::new(program);
+    cmd.env("WINEPREFIX", prefix)
+        .env("WINEDEBUG", "-all")
+        .env("WINEDLLOVERRIDES", "mscoree,mshtml=");
+    cmd
+}
+
+/// `apt-get install` of Debian packages, non-interactive; only as root (as on CI).
+fn apt_install(packages: &[&str], missing: &str) -> Result<()> {
+    let command = format!("apt-get install {}", packages.join(" "));
+    let is_root = output(Command::new("id").arg("-u")).is_ok_and(|uid| uid.trim() == "0");
+    if !is_root {
+        bail!("`{missing}` is not installed; install it as root with `{command}`");
+    }
+    if !on_path("apt-get") {
+        bail!("`{missing}` is not installed and there is no apt-get: install {packages:?}");
+    }
+    println!("installing {} (for {missing})", packages.join(", "));
+    let apt = |args: &[&str]| {
+        let mut cmd = Command::new("apt-get");
+        // Wait for another apt/dpkg run to finish instead of failing on its lock.
+        cmd.env("DEBIAN_FRONTEND", "noninteractive")
+            .args(["-o", "DPkg::Lock::Timeout=600", "-q"])
+            .args(args);
+        cmd
+    };
+    run(&mut apt(&["update"])).with_context(|| format!("{command} needs apt-get update"))?;
+    run(apt(&["install", "-y", "--no-install-recommends"]).args(packages))?;
+    if !on_path(missing) {
+        bail!("`{command}` succeeded but `{missing}` is still not on PATH");
+    }
+    Ok(())
+}
+
+/// Whether `program` is an executable in a directory of `PATH`.
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH").is_some_and(|path| {
+        std::env::split_paths(&path)
+            .any(|dir| fs::metadata(dir.join(program)).is_ok_and(|m| m.is_file()))
+    })
+}
+
+/// The standard output of a command that must succeed.
+fn output(cmd: &mut Command) -> Result<String> {
+    let out = cmd
+        .stderr(Stdio::inherit())
+        .output()
+        .with_context(|| format!("cannot start {cmd:?}"))?;
+    if !out.status.success() {
+        bail!("{cmd:?} failed with {}", out.status);
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
