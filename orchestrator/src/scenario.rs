@@ -1250,6 +1250,67 @@ mod tests {
         assert!(err.message.contains("types differ"), "{err}");
     }
 
+    /// A memory channel a.yr → a.ur (10 samples of 0.1 s: Nyquist 5 Hz) with `update` as
+    /// the body of its `[memory.update]` table, which starts on line 13.
+    fn parse_update(update: &str) -> Result<Scenario, ScenarioError> {
+        parse(&format!(
+            "[[memory]]\nfrom = \"a.yr\"\nto = \"a.ur\"\n[memory.update]\n{update}"
+        ))
+    }
+
+    #[test]
+    fn memory_update_is_read_with_defaults() {
+        let s =
+            parse_update("filter = \"butterworth\"\norder = 2\ncutoff = 1.5\nlead = 3\n").unwrap();
+        assert_eq!(
+            s.memory[0].update,
+            Some(UpdateSettings {
+                filter: Some(LowPass {
+                    order: 2,
+                    cutoff_hz: 1.5
+                }),
+                lead: 3,
+                forgetting: 1.0,
+                gain: 1.0,
+            })
+        );
+        let s = parse("[[memory]]\nfrom = \"a.yr\"\nto = \"a.ur\"\n").unwrap();
+        assert_eq!(s.memory[0].update, None);
+    }
+
+    #[test]
+    fn bad_memory_updates_name_the_line() {
+        let f = "filter = \"butterworth\"\n";
+        for (body, line, needle) in [
+            (format!("{f}order = 4\ncutoff = 5.0\n"), 15, "Nyquist"),
+            (format!("{f}order = 4\ncutoff = 7.5\n"), 15, "Nyquist"),
+            (format!("{f}order = 4\ncutoff = nan\n"), 15, "Nyquist"),
+            (format!("{f}order = 4\ncutoff = -1.0\n"), 15, "Nyquist"),
+            (format!("{f}order = 0\ncutoff = 1.0\n"), 14, "between 1 and"),
+            (format!("{f}order = 4\n"), 13, "needs cutoff"),
+            (
+                format!("{f}order = 2\ncutoff = 1.0\nlead = -1\n"),
+                16,
+                "negative",
+            ),
+            (
+                format!("{f}order = 2\ncutoff = 1.0\nlead = 10\n"),
+                16,
+                "less than the 10 samples",
+            ),
+            ("lead = 2\ngain = nan\n".to_string(), 14, "finite"),
+            ("forgetting = inf\n".to_string(), 13, "finite"),
+            ("order = 2\n".to_string(), 13, "need filter"),
+            ("filter = \"chebyshev\"\n".to_string(), 13, "unknown"),
+            ("lag = 3\n".to_string(), 13, "unknown field `lag`"),
+        ] {
+            let err = parse_update(&body).expect_err(&body);
+            assert_eq!(err.line, Some(line), "{body}: {err}");
+            assert!(err.message.contains(needle), "{body}: {err}");
+            assert!(err.to_string().starts_with("s.toml:"), "{err}");
+        }
+    }
+
     /// A scenario of `trials` trials whose FMU "a" gets `parameters` (TOML lines).
     fn with_parameters(trials: usize, parameters: &str) -> Result<Scenario, ScenarioError> {
         let text = format!(

@@ -21,8 +21,9 @@ use orchestrator::scenario::Scenario;
 static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// A 2 s line under HLCS with sensor noise seeded per trial, recording at every sample and
-/// the true-error metrics ports (reference and noise-free length), with the packaged FMUs.
-fn scenario_toml() -> String {
+/// the true-error metrics ports (reference and noise-free length), with the packaged FMUs;
+/// `update` is the memory channel's update table (empty: the paper's).
+fn scenario_toml(update: &str) -> String {
     let path = |name: &str| {
         std::fs::canonicalize(common::built_fmu(name))
             .unwrap()
@@ -66,6 +67,7 @@ to = "plant.force"
 [[memory]]
 from = "controller.memory_next"
 to = "controller.memory"
+{update}
 
 [record]
 variables = ["controller.error", "controller.force", "controller.memory_next", "plant.length", "plant.pose"]
@@ -84,7 +86,20 @@ trajectory = {{ kind = "line", duration = 2.0, home_height = 0.5 }}
 
 #[test]
 fn trials_after_the_first_do_not_allocate() {
-    let text = scenario_toml();
+    trials_after_the_first_do_not_allocate_with("");
+}
+
+/// The robust update (zero-phase Butterworth filter, lead, forgetting, gain) runs on
+/// buffers prepared in `Master::new`.
+#[test]
+fn trials_after_the_first_do_not_allocate_with_the_robust_update() {
+    trials_after_the_first_do_not_allocate_with(
+        "[memory.update]\nfilter = \"butterworth\"\norder = 4\ncutoff = 8.0\nlead = 25\nforgetting = 0.99\ngain = 0.9\n",
+    );
+}
+
+fn trials_after_the_first_do_not_allocate_with(update: &str) {
+    let text = scenario_toml(update);
     let mut fmus = Vec::new();
     let scenario = Scenario::parse(&text, Path::new("alloc-line.toml"), |path| {
         let fmu = Fmu::open(path).map_err(|e| e.to_string())?;

@@ -1,0 +1,209 @@
+//! The robust memory update (docs/model.md §9) through the packaged FMUs: without an update
+//! table the memory is the paper's, bit for bit; with the robust setting (Butterworth order
+//! 4, 8 Hz, lead 25) learning meets the acceptance bounds on the circle and the line,
+//! also with a 30 % heavier platform and with the learning gains scaled by 0.75.
+
+mod common;
+
+use std::path::Path;
+
+use fmi2::import::Fmu;
+use orchestrator::master::Master;
+use orchestrator::scenario::Scenario;
+
+const ROBUST: &str =
+    "[memory.update]\nfilter = \"butterworth\"\norder = 4\ncutoff = 8.0\nlead = 25\n";
+
+/// A scenario of `trajectory` over `duration` s with `update` as the memory channel's
+/// update table (empty: none), extra controller and plant parameters, and the memory
+/// written recorded.
+fn scenario_toml(
+    trajectory: &str,
+    duration: f64,
+    update: &str,
+    controller_params: &str,
+    plant_params: &str,
+) -> String {
+    let path = |name: &str| {
+        std::fs::canonicalize(common::built_fmu(name))
+            .unwrap()
+            .display()
+            .to_string()
+    };
+    format!(
+        r#"
+step_size = 0.001
+stop_time = {duration:?}
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "{trajectory}"
+duration = {duration:?}
+learning = true
+{controller_params}
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+[fmu.parameters]
+{plant_params}
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+{update}
+
+[record]
+variables = ["controller.memory_next"]
+
+[metrics]
+error = "controller.error"
+"#,
+        controller = path("HlcsController"),
+        plant = path("CkcmPlant"),
+    )
+}
+
+/// Runs `trials` trials of `text`; per trial the max leg error (m), the memory_next written
+/// (sample-major, as the memory buffer) and the memory left for the next trial.
+fn run(text: &str, trials: usize) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
+    let mut fmus = Vec::new();
+    let scenario = Scenario::parse(text, Path::new("robust.toml"), |path| {
+        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+        let md = fmu.model_description().clone();
+        fmus.push(fmu);
+        Ok(md)
+    })
+    .unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+    let mut recording = master.new_recording();
+    let mut signals = master.new_signals();
+    (0..trials)
+        .map(|k| {
+            master
+                .run_trial(k, Some(&mut recording), &mut signals, |_| {})
+                .unwrap();
+            let max = signals
+                .error
+                .iter()
+                .flatten()
+                .fold(0.0f64, |m, e| m.max(e.abs()));
+            let written: Vec<f64> = (0..recording.len())
+                .flat_map(|n| recording.columns.iter().map(move |c| c[n]))
+                .collect();
+            (max, written, master.memory()[0].to_vec())
+        })
+        .collect()
+}
+
+fn max_errors_mm(runs: &[(f64, Vec<f64>, Vec<f64>)]) -> Vec<f64> {
+    runs.iter().map(|r| r.0 * 1e3).collect()
+}
+
+/// After trial 3 the max error never rises by more than 1 µm from one trial to the next.
+fn assert_no_rise_after_trial_3(max_mm: &[f64], what: &str) {
+    for k in 3..max_mm.len() - 1 {
+        assert!(
+            max_mm[k + 1] - max_mm[k] <= 1e-3,
+            "{what}: max error rises from {} to {} mm at trial {}: {max_mm:?}",
+            max_mm[k],
+            max_mm[k + 1],
+            k + 1
+        );
+    }
+}
+
+#[test]
+fn without_an_update_table_the_memory_is_the_paper_bit_for_bit() {
+    let plain = run(&scenario_toml("line", 2.0, "", "", ""), 3);
+    for (k, (_, written, memory)) in plain.iter().enumerate() {
+        // The next trial reads exactly what this one wrote.
+        assert_eq!(written, memory, "trial {k}");
+        assert!(memory.iter().any(|&u| u != 0.0));
+    }
+    // A table that spells out the defaults is the paper's update too.
+    let identity = "[memory.update]\nlead = 0\nforgetting = 1.0\ngain = 1.0\n";
+    let spelled = run(&scenario_toml("line", 2.0, identity, "", ""), 3);
+    for (k, (a, b)) in plain.iter().zip(&spelled).enumerate() {
+        assert_eq!(a.0.to_bits(), b.0.to_bits(), "trial {k}: max error");
+        assert_eq!(a.2, b.2, "trial {k}: memory");
+    }
+    // The robust update does change the memory.
+    let robust = run(&scenario_toml("line", 2.0, ROBUST, "", ""), 1);
+    assert_ne!(robust[0].1, robust[0].2);
+}
+
+/// Bounds on the circle: ≤ 0.025 mm from trial 10 on, no rise after trial 3, and with
+/// `early` ≤ 0.035 mm from trial 3 on. (Measured with the heavier platform and with the
+/// lower gains, trial 3 is at 0.041 and 0.038 mm: learning is slower there, so only the
+/// nominal case is held to the early bound.)
+fn assert_circle_bounds(controller_params: &str, plant_params: &str, what: &str, early: bool) {
+    let text = scenario_toml("circle", 5.0, ROBUST, controller_params, plant_params);
+    let max_mm = max_errors_mm(&run(&text, 30));
+    assert!(
+        max_mm[0] > 1.0,
+        "{what}: trial 0 shows the mismatch: {max_mm:?}"
+    );
+    assert!(
+        !early || max_mm[3..].iter().all(|&e| e <= 0.035),
+        "{what}: above 0.035 mm from trial 3: {max_mm:?}"
+    );
+    assert!(
+        max_mm[10..].iter().all(|&e| e <= 0.025),
+        "{what}: above 0.025 mm from trial 10: {max_mm:?}"
+    );
+    assert_no_rise_after_trial_3(&max_mm, what);
+}
+
+#[test]
+fn circle_robust_meets_the_bounds() {
+    assert_circle_bounds("", "", "circle", true);
+}
+
+#[test]
+fn circle_robust_meets_the_bounds_with_a_heavier_platform() {
+    let mass = ckcm::Params::default().platform.mass * 1.3;
+    assert_circle_bounds(
+        "",
+        &format!("platform_mass = {mass:?}"),
+        "platform mass × 1.3",
+        false,
+    );
+}
+
+#[test]
+fn circle_robust_meets_the_bounds_with_learning_gains_scaled_by_0_75() {
+    let g = ckcm::Gains::default();
+    let params = format!(
+        "phi = {:?}\ngamma = {:?}\npsi = {:?}",
+        g.phi * 0.75,
+        g.gamma * 0.75,
+        g.psi * 0.75
+    );
+    assert_circle_bounds(&params, "", "learning gains × 0.75", false);
+}
+
+#[test]
+fn line_robust_reaches_a_micrometre_by_trial_5_and_stays() {
+    let text = scenario_toml("line", 15.0, ROBUST, "", "");
+    let max_mm = max_errors_mm(&run(&text, 20));
+    assert!(
+        max_mm[5..].iter().all(|&e| e <= 0.001),
+        "above 0.001 mm from trial 5: {max_mm:?}"
+    );
+    assert_no_rise_after_trial_3(&max_mm, "line");
+}
