@@ -340,7 +340,8 @@ fn memory_update_axes_and_case_seeds_reach_each_case_scenario() {
     assert_eq!(u3.get("cutoff").and_then(toml::Value::as_float), Some(8.0));
     assert_eq!(u3.get("lead").and_then(toml::Value::as_integer), Some(5));
     // The seed is per case and per trial: { base = 7 + 100·case, per_trial = 1 }.
-    let seed = &case(3)["fmu"].as_array().unwrap()[1]["parameters"]["noise_seed"];
+    let case3 = case(3);
+    let seed = &case3["fmu"].as_array().unwrap()[1]["parameters"]["noise_seed"];
     assert_eq!(
         seed.get("base").and_then(toml::Value::as_integer),
         Some(307)
