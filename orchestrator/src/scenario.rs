@@ -1041,40 +1041,6 @@ fn parameter_settings(
     Ok(out)
 }
 
-/// The `min` and `max` that bound `var`: its own attributes, else those of its declared type.
-pub fn declared_range(md: &ModelDescription, var: &ScalarVariable) -> (Option<f64>, Option<f64>) {
-    let declared = |name: Option<&str>| name.and_then(|n| md.simple_type(n)).map(|t| &t.kind);
-    match &var.kind {
-        VariableKind::Real {
-            declared_type,
-            min,
-            max,
-            ..
-        } => {
-            let (tmin, tmax) = match declared(declared_type.as_deref()) {
-                Some(SimpleTypeKind::Real { min, max, .. }) => (*min, *max),
-                _ => (None, None),
-            };
-            (min.or(tmin), max.or(tmax))
-        }
-        VariableKind::Integer {
-            declared_type,
-            min,
-            max,
-            ..
-        } => {
-            let (tmin, tmax) = match declared(declared_type.as_deref()) {
-                Some(SimpleTypeKind::Integer { min, max, .. }) => (*min, *max),
-                _ => (None, None),
-            };
-            (min.or(tmin).map(f64::from), max.or(tmax).map(f64::from))
-        }
-        // The items bound an enumeration type; a variable may narrow them.
-        VariableKind::Enumeration { min, max, .. } => (min.map(f64::from), max.map(f64::from)),
-        VariableKind::Boolean { .. } | VariableKind::String { .. } => (None, None),
-    }
-}
-
 /// Checks a value against what the model description allows for `var`: a finite number
 /// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
 /// an error the FMU may only report later, without the scenario's line).
@@ -1092,7 +1058,7 @@ pub fn check_value(
     if !x.is_finite() {
         return Err(format!("{name:?} = {x} is not a finite number"));
     }
-    let (min, max) = declared_range(md, var);
+    let (min, max) = md.range_of(var);
     let range = format!(
         "[{}, {}]",
         min.map_or("-inf".to_owned(), |m| m.to_string()),
