@@ -1,30 +1,12 @@
 //! The sweep's own charts: a metric against a parameter, and a heatmap over a two-axis grid.
 //! SVG text without fonts, as in [`super::plots`]; non-finite values are left out, never drawn.
 
-use std::error::Error;
 use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::{OutputError, write_atomic};
-
-const FONT: &str = "sans-serif";
-
-/// The "tab10" colours of the other figures, so groups look alike everywhere.
-const COLOURS: [RGBColor; 4] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-];
-
-fn finish(path: &Path, svg: String, drawn: Result<(), Box<dyn Error>>) -> Result<(), OutputError> {
-    drawn.map_err(|e| OutputError::Plot {
-        path: path.to_owned(),
-        message: e.to_string(),
-    })?;
-    write_atomic(path, |w| w.write_all(svg.as_bytes()))
-}
+use super::OutputError;
+use super::plots::{FONT, colour, render};
 
 /// A log-axis range around the positive finite values, padded by a quarter of a decade.
 fn log_bounds(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
@@ -76,11 +58,7 @@ pub fn scatter(
     } else {
         (0.0, 1.0)
     };
-    let mut svg = String::new();
-    let drawn = (|| -> Result<(), Box<dyn Error>> {
-        let root = SVGBackend::with_string(&mut svg, (1000, 560)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let body = root.titled(title, (FONT, 24))?;
+    render(path, (1000, 560), title, |body| {
         let (plot, legend) = body.split_horizontally(790);
         let mut chart = ChartBuilder::on(&plot)
             .margin(15)
@@ -96,7 +74,7 @@ pub fn scatter(
             .axis_desc_style((FONT, 16))
             .draw()?;
         for (g, (_, points)) in groups.iter().enumerate() {
-            let c = COLOURS[g % COLOURS.len()];
+            let c = colour(g);
             chart.draw_series(
                 points
                     .iter()
@@ -106,14 +84,12 @@ pub fn scatter(
         }
         for (g, (label, _)) in groups.iter().enumerate() {
             let y = 30 + 26 * g as i32;
-            let c = COLOURS[g % COLOURS.len()];
+            let c = colour(g);
             legend.draw(&Circle::new((15, y), 5, c.filled()))?;
             legend.draw(&Text::new(label.clone(), (28, y - 8), (FONT, 15)))?;
         }
-        root.present()?;
         Ok(())
-    })();
-    finish(path, svg, drawn)
+    })
 }
 
 /// Colour of `t` in 0..1 on a blue (low) to red (high) ramp.
@@ -148,11 +124,7 @@ pub fn heatmap(
     };
     let shade = |v: f64| ramp((v.log10() - llo) / (lhi - llo));
     let (nx, ny) = (x.1.len(), y.1.len());
-    let mut svg = String::new();
-    let drawn = (|| -> Result<(), Box<dyn Error>> {
-        let root = SVGBackend::with_string(&mut svg, (1000, 620)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let body = root.titled(title, (FONT, 24))?;
+    render(path, (1000, 620), title, |body| {
         let (plot, bar) = body.split_horizontally(850);
         let mut chart = ChartBuilder::on(&plot)
             .margin(15)
@@ -211,10 +183,8 @@ pub fn heatmap(
             let v = 10f64.powf(llo + t * (lhi - llo));
             bar.draw(&Text::new(tick(v), (45, y0 + 18), (FONT, 13)))?;
         }
-        root.present()?;
         Ok(())
-    })();
-    finish(path, svg, drawn)
+    })
 }
 
 /// One group's quantiles of a metric per trial (entry k is trial k).
@@ -246,11 +216,7 @@ pub fn envelope(
         .unwrap_or(1)
         .max(1);
     let ok = |v: f64| v.is_finite() && v > 0.0;
-    let mut svg = String::new();
-    let drawn = (|| -> Result<(), Box<dyn Error>> {
-        let root = SVGBackend::with_string(&mut svg, (1000, 560)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let body = root.titled(title, (FONT, 24))?;
+    render(path, (1000, 560), title, |body| {
         let (plot, legend) = body.split_horizontally(790);
         let mut chart = ChartBuilder::on(&plot)
             .margin(15)
@@ -274,7 +240,7 @@ pub fn envelope(
             },
         ) in groups.iter().enumerate()
         {
-            let c = COLOURS[g % COLOURS.len()];
+            let c = colour(g);
             let band: Vec<(f64, f64)> = (0..trials)
                 .filter(|&k| {
                     p5.get(k).is_some_and(|&v| ok(v)) && p95.get(k).is_some_and(|&v| ok(v))
@@ -303,7 +269,7 @@ pub fn envelope(
         }
         for (g, Band { label, .. }) in groups.iter().enumerate() {
             let y = 30 + 44 * g as i32;
-            let c = COLOURS[g % COLOURS.len()];
+            let c = colour(g);
             legend.draw(&PathElement::new(vec![(5, y), (30, y)], c.stroke_width(2)))?;
             legend.draw(&Text::new(
                 format!("{label}: median"),
@@ -320,10 +286,8 @@ pub fn envelope(
                 (FONT, 13),
             ))?;
         }
-        root.present()?;
         Ok(())
-    })();
-    finish(path, svg, drawn)
+    })
 }
 
 #[cfg(test)]
