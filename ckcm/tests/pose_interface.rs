@@ -105,3 +105,37 @@ fn one_non_finite_component_makes_the_pose_non_finite() {
         }
     }
 }
+
+/// Forward kinematics takes leg lengths, which are positive distances: zero, negative and
+/// infinite lengths are rejected up front, naming the leg (1-based), before any iteration
+/// could turn them into a pose.
+#[test]
+fn forward_kinematics_rejects_non_positive_and_infinite_lengths() {
+    let m = ckcm::Mechanism::new(ckcm::Params::default()).unwrap();
+    let home_lengths = m.inverse_kinematics(&m.home()).length;
+    for (leg, bad) in [
+        (1, 0.0),
+        (3, -0.5),
+        (4, -0.0),
+        (6, f64::INFINITY),
+        (2, f64::NAN),
+    ] {
+        let mut lengths = home_lengths;
+        lengths[leg - 1] = bad;
+        match m.forward_kinematics(&lengths, &m.home(), &ckcm::FkOptions::default()) {
+            Err(ckcm::FkError::InvalidLength { index, value }) => {
+                assert_eq!(index, leg, "length {bad}");
+                assert!(
+                    value.to_bits() == bad.to_bits(),
+                    "reported {value}, set {bad}"
+                );
+            }
+            other => panic!("leg {leg} length {bad}: {other:?}"),
+        }
+    }
+    // The valid home lengths give back the home pose.
+    let (pose, _) = m
+        .forward_kinematics(&home_lengths, &m.home(), &ckcm::FkOptions::default())
+        .unwrap();
+    assert!((pose.p_world - m.home().p_world).norm() < 1e-12);
+}
