@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2::export::{Causality, VarType};
+use fmi2::import::Fmu;
 use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
@@ -338,18 +339,30 @@ impl Ctx<'_> {
 }
 
 impl Scenario {
-    /// Reads and validates a scenario file; `describe` yields the model description of an
-    /// FMU path (the caller opens the FMU, so validation and loading share one unzip).
-    pub fn load(
-        file: &Path,
-        describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
-    ) -> Result<Scenario, ScenarioError> {
+    /// Reads the scenario file, opens every FMU it names and validates the scenario against
+    /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
+    /// in scenario order.
+    pub fn open(file: &Path) -> Result<(Scenario, String, Vec<Fmu>), ScenarioError> {
         let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
             file: file.to_path_buf(),
             line: None,
             message: format!("cannot read the scenario: {e}"),
         })?;
-        Self::parse(&text, file, describe)
+        let (scenario, fmus) = Self::open_text(&text, file)?;
+        Ok((scenario, text, fmus))
+    }
+
+    /// [`Scenario::open`] for scenario `text` said to come from `file` (for messages and
+    /// relative FMU paths). Each FMU is unzipped once, for validation and for running.
+    pub fn open_text(text: &str, file: &Path) -> Result<(Scenario, Vec<Fmu>), ScenarioError> {
+        let mut fmus = Vec::new();
+        let scenario = Self::parse(text, file, |path| {
+            let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+            let md = fmu.model_description().clone();
+            fmus.push(fmu);
+            Ok(md)
+        })?;
+        Ok((scenario, fmus))
     }
 
     /// Validates scenario `text` read from `file` (used for messages and relative paths).

@@ -20,7 +20,7 @@ use crate::args::AnalyzeArgs;
 
 /// Runs `analyze`.
 pub fn run(args: AnalyzeArgs) -> Result<()> {
-    let (scenario, _, fmus) = super::run::load(&args.scenario)?;
+    let (scenario, _, fmus) = Scenario::open(&args.scenario)?;
     let problem = problem(&args, &scenario, &fmus)?;
     let analysis = analyse(&problem).with_context(|| format!("{}", args.scenario.display()))?;
     let out = args.out.clone().unwrap_or_else(|| {
