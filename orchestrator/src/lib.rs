@@ -9,3 +9,4 @@ pub mod output;
 pub mod paper;
 pub mod scenario;
 pub mod sweep;
+pub mod variables;

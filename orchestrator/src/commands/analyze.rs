@@ -146,6 +146,8 @@ fn values(md: &ModelDescription, spec: &FmuSpec) -> BTreeMap<String, f64> {
             Value::Real(x) => x,
             Value::Integer(i) => f64::from(i),
             Value::Boolean(b) => f64::from(u8::from(b)),
+            // The mechanism has no text parameters.
+            Value::String(_) => continue,
         };
         v.insert(s.name.clone(), x);
     }

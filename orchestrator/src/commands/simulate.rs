@@ -12,12 +12,15 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail, ensure};
 use fmi2::Status;
-use fmi2::export::{Causality, Variability};
+use fmi2::export::Causality;
 use fmi2::import::{Fmu, ImportError, Instance};
-use fmi2::md::{Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use fmi2::md::{ModelDescription, ScalarVariable, VariableKind};
 use orchestrator::master::STATUS_CATEGORIES;
 use orchestrator::output::{CsvWithText, Exporter, Recording, write_recording};
-use orchestrator::scenario::{self, check_value};
+use orchestrator::variables::{
+    Literal, Value, causality_phrase, check_value, convert, no_such_variable, resolve, set_value,
+    settable,
+};
 
 use crate::args::SimulateArgs;
 
@@ -113,16 +116,6 @@ impl Plan {
     }
 }
 
-/// A value converted to its variable's base type.
-#[derive(Debug, Clone, PartialEq)]
-enum Value {
-    Real(f64),
-    /// Integer and Enumeration.
-    Integer(i32),
-    Boolean(bool),
-    String(String),
-}
-
 /// One start value from `--set`.
 #[derive(Debug, Clone, PartialEq)]
 struct Assignment {
@@ -137,12 +130,15 @@ fn parse_assignment(md: &ModelDescription, text: &str) -> Result<Vec<Assignment>
         bail!("expected NAME=VALUE");
     };
     let name = name.trim();
-    let vars = resolve(md, name)?;
+    let vars = resolve(md, name);
+    if vars.is_empty() {
+        bail!(no_such_variable(md, name));
+    }
     vars.into_iter()
         .map(|var| {
-            settable(var)?;
-            let value = parse_value(md, var, value).map_err(anyhow::Error::msg)?;
-            check_range(md, var, &value).map_err(anyhow::Error::msg)?;
+            settable(var).map_err(anyhow::Error::msg)?;
+            let value = convert(md, var, Literal::Text(value)).map_err(anyhow::Error::msg)?;
+            check_value(md, var, &value).map_err(anyhow::Error::msg)?;
             Ok(Assignment {
                 name: var.name.clone(),
                 vr: var.value_reference,
@@ -150,131 +146,6 @@ fn parse_assignment(md: &ModelDescription, text: &str) -> Result<Vec<Assignment>
             })
         })
         .collect()
-}
-
-/// The variables `name` denotes: the one with exactly that name, else every element
-/// `name[...]` of an array, so `force=0` sets `force[1]` to `force[6]`.
-fn resolve<'a>(md: &'a ModelDescription, name: &str) -> Result<Vec<&'a ScalarVariable>> {
-    if let Some(v) = md.variable_by_name(name) {
-        return Ok(vec![v]);
-    }
-    let prefix = format!("{name}[");
-    let elements: Vec<_> = md
-        .model_variables
-        .iter()
-        .filter(|v| v.name.starts_with(&prefix))
-        .collect();
-    if !elements.is_empty() {
-        return Ok(elements);
-    }
-    let lower = name.to_lowercase();
-    let similar: Vec<&str> = md
-        .model_variables
-        .iter()
-        .map(|v| v.name.as_str())
-        .filter(|n| !lower.is_empty() && n.to_lowercase().contains(&lower))
-        .take(5)
-        .collect();
-    let hint = if similar.is_empty() {
-        "`orchestrator info` lists its variables".to_owned()
-    } else {
-        format!("similar names: {}", similar.join(", "))
-    };
-    bail!(
-        "model '{}' has no variable named '{name}' ({hint})",
-        md.model_name
-    )
-}
-
-/// Whether FMI 2.0 lets a master give `var` a value before initialization: inputs, and
-/// non-constant variables whose `initial` is exact or approx.
-fn settable(var: &ScalarVariable) -> Result<()> {
-    let name = &var.name;
-    if var.variability == Variability::Constant {
-        bail!("'{name}' is a constant and cannot be set");
-    }
-    match var.causality {
-        Causality::Input => Ok(()),
-        Causality::Independent => bail!("'{name}' is the independent variable (time)"),
-        _ if matches!(var.initial, Some(Initial::Exact | Initial::Approx)) => Ok(()),
-        c => bail!(
-            "'{name}' is {} and computed by the FMU (initial = calculated), so it has no start value to set",
-            causality_phrase(c)
-        ),
-    }
-}
-
-fn causality_phrase(c: Causality) -> &'static str {
-    match c {
-        Causality::Parameter => "a parameter",
-        Causality::CalculatedParameter => "a calculated parameter",
-        Causality::Input => "an input",
-        Causality::Output => "an output",
-        Causality::Local => "a local variable",
-        Causality::Independent => "the independent variable",
-    }
-}
-
-/// Converts `text` to `var`'s type: a finite number for Real; an integral number for
-/// Integer; `true`/`false` (or 1/0) for Boolean; a number or an item name for Enumeration.
-fn parse_value(md: &ModelDescription, var: &ScalarVariable, text: &str) -> Result<Value, String> {
-    let t = text.trim();
-    let name = &var.name;
-    match &var.kind {
-        VariableKind::Real { .. } => t
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .map(Value::Real)
-            .ok_or_else(|| format!("'{t}' is not a finite number ('{name}' is a Real)")),
-        VariableKind::Integer { .. } => parse_integer(t)
-            .map(Value::Integer)
-            .ok_or_else(|| format!("'{t}' is not an integer ('{name}' is an Integer)")),
-        VariableKind::Boolean { .. } => match t {
-            "true" | "1" => Ok(Value::Boolean(true)),
-            "false" | "0" => Ok(Value::Boolean(false)),
-            _ => Err(format!(
-                "'{t}' is not a Boolean ('{name}' is a Boolean: use true or false)"
-            )),
-        },
-        VariableKind::Enumeration { declared_type, .. } => {
-            let items = md.simple_type(declared_type).and_then(|st| match &st.kind {
-                SimpleTypeKind::Enumeration { items, .. } => Some(items),
-                _ => None,
-            });
-            let found = match (parse_integer(t), items) {
-                (Some(n), Some(items)) => items.iter().any(|i| i.value == n).then_some(n),
-                (Some(n), None) => Some(n),
-                (None, items) => items
-                    .and_then(|items| items.iter().find(|i| i.name == t))
-                    .map(|i| i.value),
-            };
-            found.map(Value::Integer).ok_or_else(|| {
-                let choices = items.map_or_else(String::new, |items| {
-                    items
-                        .iter()
-                        .map(|i| format!("{} ({})", i.name, i.value))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                });
-                format!(
-                    "'{t}' is not an item of enumeration {declared_type} ('{name}' takes one of: {choices})"
-                )
-            })
-        }
-        VariableKind::String { .. } => Ok(Value::String(text.to_owned())),
-    }
-}
-
-/// Checks a number against the variable's declared `min`/`max` (the same rule as scenario
-/// validation), so a value the FMU would refuse fails before the FMU is instantiated.
-fn check_range(md: &ModelDescription, var: &ScalarVariable, value: &Value) -> Result<(), String> {
-    let value = match *value {
-        Value::Real(x) => scenario::Value::Real(x),
-        Value::Integer(n) => scenario::Value::Integer(n),
-        Value::Boolean(_) | Value::String(_) => return Ok(()),
-    };
-    check_value(md, var, &value)
 }
 
 /// fmpy's default output interval (`fmpy.util.auto_interval`, fmpy 0.3.32), used when
@@ -299,15 +170,6 @@ fn auto_interval(span: f64) -> f64 {
     } else {
         h
     }
-}
-
-/// An i32 written as an integer or as an integral number (`3.0`, as some tools export).
-fn parse_integer(t: &str) -> Option<i32> {
-    t.parse::<i32>().ok().or_else(|| {
-        let x: f64 = t.parse().ok()?;
-        let integral = x.fract() == 0.0 && x >= f64::from(i32::MIN) && x <= f64::from(i32::MAX);
-        integral.then_some(x as i32)
-    })
 }
 
 /// The communication points t_n = t0 + n·h (computed, never accumulated), plus a shorter
@@ -491,8 +353,8 @@ impl InputTable {
                 .enumerate()
                 .map(|(i, var)| {
                     let cell = record.get(i + 1).unwrap_or_default();
-                    match parse_value(md, var, cell)
-                        .and_then(|v| check_range(md, var, &v).map(|()| v))
+                    match convert(md, var, Literal::Text(cell))
+                        .and_then(|v| check_value(md, var, &v).map(|()| v))
                     {
                         Ok(v) => Ok(v),
                         Err(message) => bail!("{} ('{}'): {message}", at(line, i + 2), var.name),
@@ -540,16 +402,6 @@ impl InputTable {
     }
 }
 
-/// Sets one variable through the accessor family of its type.
-fn set_value(inst: &mut Instance, vr: u32, value: &Value) -> Result<Status, ImportError> {
-    match value {
-        Value::Real(x) => inst.set_real(&[vr], &[*x]),
-        Value::Integer(n) => inst.set_integer(&[vr], &[*n]),
-        Value::Boolean(b) => inst.set_boolean(&[vr], &[*b]),
-        Value::String(s) => inst.set_string(&[vr], &[s.as_str()]),
-    }
-}
-
 /// Reads the recorded variables, grouped by base type so each sample is three FMI calls.
 #[derive(Debug)]
 struct Recorder {
@@ -592,7 +444,11 @@ impl Recorder {
         } else {
             let mut vars = Vec::new();
             for name in names {
-                vars.extend(resolve(md, name).with_context(|| format!("--record {name}"))?);
+                let found = resolve(md, name);
+                if found.is_empty() {
+                    bail!("--record {name}: {}", no_such_variable(md, name));
+                }
+                vars.extend(found);
             }
             vars
         };
@@ -975,14 +831,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn integers_accept_integral_numbers_only() {
-        assert_eq!(parse_integer("42"), Some(42));
-        assert_eq!(parse_integer("-3.0"), Some(-3));
-        assert_eq!(parse_integer("2.5"), None);
-        assert_eq!(parse_integer("1e10"), None);
-        assert_eq!(parse_integer("x"), None);
     }
 }
