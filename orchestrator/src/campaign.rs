@@ -219,7 +219,8 @@ struct Progress {
     fingerprint: String,
 }
 
-fn trial_csv(dir: &Path, k: usize) -> PathBuf {
+/// The recording of trial `k` in campaign folder `dir`: the one place that names it.
+pub fn trial_csv(dir: &Path, k: usize) -> PathBuf {
     dir.join("trials").join(format!("trial_{k:03}.csv"))
 }
 
