@@ -10,6 +10,8 @@
 //! global counter would charge one test with another's allocations. With the environment
 //! variable `CKCM_ALLOC_BACKTRACE` set, every counted allocation prints a backtrace.
 
+#![deny(clippy::undocumented_unsafe_blocks)]
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::backtrace::Backtrace;
 use std::cell::Cell;
