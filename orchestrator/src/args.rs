@@ -125,6 +125,10 @@ pub struct PaperArgs {
     /// Circle duration in s (the paper: 5).
     #[arg(long, default_value_t = 5.0)]
     pub circle_duration: f64,
+    /// Trials of each case beyond the paper: the paper's update against the robust one, and
+    /// the robust update with noise, a heavier platform and lower gains (at least 5).
+    #[arg(long, default_value_t = 50)]
+    pub robust_trials: usize,
     /// Continue an interrupted study.
     #[arg(long)]
     pub resume: bool,

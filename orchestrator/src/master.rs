@@ -11,7 +11,8 @@ use ckcm::learning::MemoryUpdate;
 use fmi2::import::{Fmu, ImportError, Instance};
 
 use crate::output::Recording;
-use crate::scenario::{Port, Scenario, Value};
+use crate::scenario::{Port, Scenario};
+use crate::variables::set_value;
 
 /// A failure while running, naming the trial, the time and the call.
 #[derive(Debug, thiserror::Error)]
@@ -127,10 +128,10 @@ impl Channel {
 #[derive(Debug)]
 pub struct Master<'s> {
     scenario: &'s Scenario,
-    // Instances borrow nothing from the Fmu values but need their libraries kept alive;
-    // declared before `fmus` so they are dropped (freed) first.
+    // Instances borrow nothing from the Fmu values but need their libraries and unpacked
+    // files kept alive: held, never read; declared before them so they are dropped first.
     instances: Vec<Instance>,
-    fmus: Vec<Fmu>,
+    _fmus: Vec<Fmu>,
     wiring: Vec<Wiring>,
     bus: Vec<f64>,
     channels: Vec<Channel>,
@@ -304,7 +305,7 @@ impl<'s> Master<'s> {
         Ok(Self {
             scenario,
             instances,
-            fmus,
+            _fmus: fmus,
             bus: vec![0.0; next],
             channels,
             row: vec![0.0; columns],
@@ -316,16 +317,6 @@ impl<'s> Master<'s> {
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
         })
-    }
-
-    /// Names of the recorded columns (after `time`).
-    pub fn column_names(&self) -> &[String] {
-        &self.column_names
-    }
-
-    /// The loaded FMUs, in scenario order.
-    pub fn fmus(&self) -> &[Fmu] {
-        &self.fmus
     }
 
     /// Names of the outputs that feed the memory channels, channel by channel.
@@ -383,12 +374,8 @@ impl<'s> Master<'s> {
             // Per-trial values (e.g. a noise seed) make each trial draw fresh noise while
             // trial k always gets the same values, also on resume.
             for s in &spec.settings {
-                match s.value_in_trial(trial) {
-                    Value::Real(x) => inst.set_real(&[s.value_reference], &[x]).map(|_| ()),
-                    Value::Integer(x) => inst.set_integer(&[s.value_reference], &[x]).map(|_| ()),
-                    Value::Boolean(x) => inst.set_boolean(&[s.value_reference], &[x]).map(|_| ()),
-                }
-                .map_err(setup("setting parameters"))?;
+                set_value(inst, s.value_reference, &s.value_in_trial(trial))
+                    .map_err(setup("setting parameters"))?;
             }
             inst.setup_experiment(None, sc.start_time, Some(sc.stop_time))
                 .map_err(setup("fmi2SetupExperiment"))?;

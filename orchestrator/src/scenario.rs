@@ -8,19 +8,59 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
-use fmi2::export::{Causality, VarType};
-use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use fmi2::import::Fmu;
+use fmi2::md::{Causality, VarType};
+
+use crate::variables::{Literal, check_value, convert, resolve, settable};
+use fmi2::md::{ModelDescription, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
-/// A scenario problem: file, line (when known) and message.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}{}: {message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+/// A scenario problem: file, line (when known) and message; validation goes on after a
+/// problem where it can, and the further problems it finds are in `more`, so one run shows
+/// them all (as `fmpy validate` does for a model description).
+#[derive(Debug, Clone, PartialEq)]
 pub struct ScenarioError {
     pub file: PathBuf,
     pub line: Option<usize>,
     pub message: String,
+    /// Further problems of the same file, in the order found.
+    pub more: Vec<ScenarioError>,
 }
+
+impl ScenarioError {
+    /// One problem.
+    pub fn new(file: impl Into<PathBuf>, line: Option<usize>, message: impl Into<String>) -> Self {
+        ScenarioError {
+            file: file.into(),
+            line,
+            message: message.into(),
+            more: Vec::new(),
+        }
+    }
+
+    fn write_one(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+/// One problem per line.
+impl std::fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.write_one(f)?;
+        for e in &self.more {
+            writeln!(f)?;
+            e.write_one(f)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ScenarioError {}
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -158,13 +198,7 @@ fn default_home() -> f64 {
     0.5
 }
 
-/// A value to set before initialization.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-}
+pub use crate::variables::Value;
 
 /// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
@@ -182,13 +216,13 @@ impl Setting {
     /// The value set before trial `k` (docs/model.md §10). Integer values were checked at
     /// validation to fit every trial of the scenario.
     pub fn value_in_trial(&self, k: usize) -> Value {
-        match (self.value, self.per_trial) {
-            (Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
-                (i64::from(base) + k as i64 * i64::from(step))
+        match (&self.value, &self.per_trial) {
+            (&Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
+                (i64::from(base) + k as i64 * i64::from(*step))
                     .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
             ),
-            (Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
-            (v, _) => v,
+            (&Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
+            (v, _) => v.clone(),
         }
     }
 }
@@ -321,6 +355,8 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
 struct Ctx<'a> {
     file: &'a Path,
     text: &'a str,
+    /// Problems found so far; validation goes on past each where it can.
+    problems: std::cell::RefCell<Vec<ScenarioError>>,
 }
 
 impl Ctx<'_> {
@@ -329,27 +365,60 @@ impl Ctx<'_> {
         span: std::ops::Range<usize>,
         message: impl Into<String>,
     ) -> Result<T, ScenarioError> {
-        Err(ScenarioError {
-            file: self.file.to_path_buf(),
-            line: (span.end > 0).then(|| line_of(self.text, span.start)),
-            message: message.into(),
-        })
+        Err(ScenarioError::new(
+            self.file,
+            (span.end > 0).then(|| line_of(self.text, span.start)),
+            message,
+        ))
+    }
+
+    /// The value, or `None` with the problem kept for the final report.
+    fn keep<T>(&self, r: Result<T, ScenarioError>) -> Option<T> {
+        match r {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.problems.borrow_mut().push(e);
+                None
+            }
+        }
+    }
+
+    /// Every problem kept so far as one error (sorted by line), or `Ok` if there is none.
+    fn check(&self) -> Result<(), ScenarioError> {
+        let mut all = std::mem::take(&mut *self.problems.borrow_mut());
+        if all.is_empty() {
+            return Ok(());
+        }
+        all.sort_by_key(|e| e.line.unwrap_or(0));
+        let mut first = all.remove(0);
+        first.more = all;
+        Err(first)
     }
 }
 
 impl Scenario {
-    /// Reads and validates a scenario file; `describe` yields the model description of an
-    /// FMU path (the caller opens the FMU, so validation and loading share one unzip).
-    pub fn load(
-        file: &Path,
-        describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
-    ) -> Result<Scenario, ScenarioError> {
-        let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
-            file: file.to_path_buf(),
-            line: None,
-            message: format!("cannot read the scenario: {e}"),
+    /// Reads the scenario file, opens every FMU it names and validates the scenario against
+    /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
+    /// in scenario order.
+    pub fn open(file: &Path) -> Result<(Scenario, String, Vec<Fmu>), ScenarioError> {
+        let text = std::fs::read_to_string(file).map_err(|e| {
+            ScenarioError::new(file, None, format!("cannot read the scenario: {e}"))
         })?;
-        Self::parse(&text, file, describe)
+        let (scenario, fmus) = Self::open_text(&text, file)?;
+        Ok((scenario, text, fmus))
+    }
+
+    /// [`Scenario::open`] for scenario `text` said to come from `file` (for messages and
+    /// relative FMU paths). Each FMU is unzipped once, for validation and for running.
+    pub fn open_text(text: &str, file: &Path) -> Result<(Scenario, Vec<Fmu>), ScenarioError> {
+        let mut fmus = Vec::new();
+        let scenario = Self::parse(text, file, |path| {
+            let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+            let md = fmu.model_description().clone();
+            fmus.push(fmu);
+            Ok(md)
+        })?;
+        Ok((scenario, fmus))
     }
 
     /// Validates scenario `text` read from `file` (used for messages and relative paths).
@@ -358,11 +427,13 @@ impl Scenario {
         file: &Path,
         mut describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
     ) -> Result<Scenario, ScenarioError> {
-        let cx = Ctx { file, text };
-        let raw: RawScenario = toml::from_str(text).map_err(|e| ScenarioError {
-            file: file.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)),
-            message: e.message().to_string(),
+        let cx = Ctx {
+            file,
+            text,
+            problems: Default::default(),
+        };
+        let raw: RawScenario = toml::from_str(text).map_err(|e| {
+            ScenarioError::new(file, e.span().map(|s| line_of(text, s.start)), e.message())
         })?;
         let h = *raw.step_size.get_ref();
         if !(h.is_finite() && h > 0.0) {
@@ -411,27 +482,37 @@ impl Scenario {
             return cx.err(0..0, "no [[fmu]] entries");
         }
         let base = file.parent().unwrap_or(Path::new("."));
+        // From here on a problem is kept and validation goes on, so that one run reports
+        // every bad entry; only an FMU that cannot be opened stops it (every reference to
+        // it would fail too).
         let mut fmus = Vec::new();
         let mut mds = Vec::new();
         for f in &raw.fmus {
             let name = f.name.get_ref();
-            if name.is_empty() || name.contains('.') || name.contains(char::is_whitespace) {
-                return cx.err(
-                    f.name.span(),
-                    format!("FMU name {name:?} must be non-empty, without dots or spaces"),
-                );
-            }
-            if fmus.iter().any(|x: &FmuSpec| &x.name == name) {
-                return cx.err(f.name.span(), format!("FMU name {name:?} is used twice"));
-            }
-            let path = base.join(f.path.get_ref());
-            let md = match describe(&path) {
-                Ok(md) => md,
-                Err(e) => return cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+            let opened = (|| {
+                if name.is_empty() || name.contains('.') || name.contains(char::is_whitespace) {
+                    return cx.err(
+                        f.name.span(),
+                        format!("FMU name {name:?} must be non-empty, without dots or spaces"),
+                    );
+                }
+                if fmus.iter().any(|x: &FmuSpec| &x.name == name) {
+                    return cx.err(f.name.span(), format!("FMU name {name:?} is used twice"));
+                }
+                let path = base.join(f.path.get_ref());
+                match describe(&path) {
+                    Ok(md) => Ok((path, md)),
+                    Err(e) => cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+                }
+            })();
+            let Some((path, md)) = cx.keep(opened) else {
+                continue;
             };
             let mut settings = Vec::new();
             for (key, value) in &f.parameters {
-                settings.extend(parameter_settings(&cx, &md, key, value, trials)?);
+                if let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) {
+                    settings.extend(s);
+                }
             }
             fmus.push(FmuSpec {
                 name: name.clone(),
@@ -440,13 +521,23 @@ impl Scenario {
             });
             mds.push(md);
         }
+        if fmus.len() != raw.fmus.len() {
+            cx.check()?;
+        }
         let resolve = |r: &Spanned<String>, what: &str| resolve_port(&cx, &fmus, &mds, r, what);
         let mut connections = Vec::new();
+        let mut fed_by: Vec<&RawLink> = Vec::new();
         for c in &raw.connections {
-            let from = resolve(&c.from, "connection from")?;
-            let to = resolve(&c.to, "connection to")?;
-            check_link(&cx, &mds, c, &from, &to, "connection")?;
-            connections.push(Link { from, to });
+            let link = (|| {
+                let from = resolve(&c.from, "connection from")?;
+                let to = resolve(&c.to, "connection to")?;
+                check_link(&cx, &mds, c, &from, &to, "connection")?;
+                Ok(Link { from, to })
+            })();
+            if let Some(link) = cx.keep(link) {
+                connections.push(link);
+                fed_by.push(c);
+            }
         }
         let raw_memory: Vec<RawLink> = raw
             .memory
@@ -458,87 +549,105 @@ impl Scenario {
             .collect();
         let mut memory = Vec::new();
         for (c, m) in raw_memory.iter().zip(&raw.memory) {
-            let from = resolve(&c.from, "memory from")?;
-            let to = resolve(&c.to, "memory to")?;
-            check_link(&cx, &mds, c, &from, &to, "memory channel")?;
-            let update = match &m.update {
-                None => None,
-                Some(u) => Some(parse_update(&cx, u, steps, h)?),
-            };
-            memory.push(MemoryChannel {
-                link: Link { from, to },
-                update,
-            });
+            let channel = (|| {
+                let from = resolve(&c.from, "memory from")?;
+                let to = resolve(&c.to, "memory to")?;
+                check_link(&cx, &mds, c, &from, &to, "memory channel")?;
+                let update = match &m.update {
+                    None => None,
+                    Some(u) => Some(parse_update(&cx, u, steps, h)?),
+                };
+                Ok(MemoryChannel {
+                    link: Link { from, to },
+                    update,
+                })
+            })();
+            if let Some(channel) = cx.keep(channel) {
+                memory.push(channel);
+                fed_by.push(c);
+            }
         }
         // An input fed twice would silently depend on the order of the entries.
         let mut fed = BTreeSet::new();
         for (link, raw_link) in connections
             .iter()
             .chain(memory.iter().map(|m| &m.link))
-            .zip(raw.connections.iter().chain(&raw_memory))
+            .zip(fed_by)
         {
-            for vr in &link.to.value_references {
-                if !fed.insert((link.to.fmu, *vr)) {
-                    return cx.err(
-                        raw_link.to.span(),
-                        format!(
-                            "input {:?} is fed by more than one connection",
-                            raw_link.to.get_ref()
-                        ),
-                    );
-                }
+            if link
+                .to
+                .value_references
+                .iter()
+                .any(|vr| !fed.insert((link.to.fmu, *vr)))
+            {
+                cx.keep::<()>(cx.err(
+                    raw_link.to.span(),
+                    format!(
+                        "input {:?} is fed by more than one connection",
+                        raw_link.to.get_ref()
+                    ),
+                ));
             }
         }
         let mut ports: Vec<Port> = Vec::new();
         let mut recorded: BTreeMap<String, String> = BTreeMap::new();
         for r in &raw.record.variables {
-            let p = resolve(r, "record")?;
-            // A variable listed twice would give two CSV columns of one name: refused, so
-            // the scenario says exactly what each column is.
-            for name in &p.names {
-                if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+            let port = (|| {
+                let p = resolve(r, "record")?;
+                // A variable listed twice would give two CSV columns of one name: refused,
+                // so the scenario says exactly what each column is.
+                for name in &p.names {
+                    if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+                        return cx.err(
+                            r.span(),
+                            format!(
+                                "record: {name:?} is listed twice (already recorded by {by:?})"
+                            ),
+                        );
+                    }
+                }
+                if p.var_type != VarType::Real {
                     return cx.err(
                         r.span(),
-                        format!("record: {name:?} is listed twice (already recorded by {by:?})"),
+                        format!(
+                            "record: {:?} is not Real; only Real variables are recorded",
+                            r.get_ref()
+                        ),
                     );
                 }
+                Ok(p)
+            })();
+            if let Some(p) = cx.keep(port) {
+                ports.push(p);
             }
-            if p.var_type != VarType::Real {
-                return cx.err(
-                    r.span(),
-                    format!(
-                        "record: {:?} is not Real; only Real variables are recorded",
-                        r.get_ref()
-                    ),
-                );
-            }
-            ports.push(p);
         }
         let interval = *raw.record.interval.get_ref();
         if interval == 0 {
-            return cx.err(
+            cx.keep::<()>(cx.err(
                 raw.record.interval.span(),
                 "record.interval must be at least 1",
-            );
+            ));
         }
         let rec_trials = match &raw.record.trials {
             None => None,
             Some(t) => {
                 if let Some(bad) = t.get_ref().iter().find(|&&k| k >= trials) {
-                    return cx.err(
+                    cx.keep::<()>(cx.err(
                         t.span(),
                         format!(
                             "record.trials lists trial {bad}, but trials are numbered 0..{}",
                             trials - 1
                         ),
-                    );
+                    ));
                 }
                 Some(t.get_ref().iter().copied().collect())
             }
         };
-        let metrics = match &raw.metrics {
-            None => None,
-            Some(spanned) => {
+        let metrics = (|| {
+            let Some(spanned) = &raw.metrics else {
+                return Ok(None);
+            };
+            {
                 let m = spanned.get_ref();
                 let six = |r: &Spanned<String>, what: &str| {
                     let port = resolve(r, what)?;
@@ -591,14 +700,16 @@ impl Scenario {
                 if pose.is_some() != trajectory.is_some() {
                     return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
                 }
-                Some(Metrics {
+                Ok(Some(Metrics {
                     error,
                     rho,
                     pose,
                     trajectory,
-                })
+                }))
             }
-        };
+        })();
+        let metrics = cx.keep(metrics).flatten();
+        cx.check()?;
         Ok(Scenario {
             source: file.to_path_buf(),
             step_size: h,
@@ -843,27 +954,6 @@ fn check_link(
     Ok(())
 }
 
-/// Scalars named `base` or `base[i]` (sorted by i) in `md`.
-fn scalars<'a>(md: &'a ModelDescription, base: &str) -> Vec<&'a fmi2::md::ScalarVariable> {
-    if let Some(v) = md.model_variables.iter().find(|v| v.name == base) {
-        return vec![v];
-    }
-    let mut found: Vec<(usize, &fmi2::md::ScalarVariable)> = md
-        .model_variables
-        .iter()
-        .filter_map(|v| {
-            let rest = v
-                .name
-                .strip_prefix(base)?
-                .strip_prefix('[')?
-                .strip_suffix(']')?;
-            rest.parse::<usize>().ok().map(|i| (i, v))
-        })
-        .collect();
-    found.sort_by_key(|(i, _)| *i);
-    found.into_iter().map(|(_, v)| v).collect()
-}
-
 fn resolve_port(
     cx: &Ctx<'_>,
     fmus: &[FmuSpec],
@@ -889,7 +979,7 @@ fn resolve_port(
         );
     };
     let md = &mds[fmu];
-    let vars = scalars(md, var);
+    let vars = resolve(md, var);
     if vars.is_empty() {
         return cx.err(
             r.span(),
@@ -917,7 +1007,7 @@ fn resolve_port(
         var_type,
         sampled: vars
             .iter()
-            .all(|v| v.variability == fmi2::export::Variability::Discrete),
+            .all(|v| v.variability == fmi2::md::Variability::Discrete),
     })
 }
 
@@ -929,7 +1019,7 @@ fn parameter_settings(
     trials: usize,
 ) -> Result<Vec<Setting>, ScenarioError> {
     let name = key.get_ref();
-    let vars = scalars(md, name);
+    let vars = resolve(md, name);
     if vars.is_empty() {
         return cx.err(
             key.span(),
@@ -955,21 +1045,9 @@ fn parameter_settings(
     }
     let mut out = Vec::new();
     for (v, x) in vars.iter().zip(values) {
-        if !matches!(v.causality, Causality::Parameter | Causality::Input) {
-            return cx.err(
-                key.span(),
-                format!(
-                    "{:?} is {:?}, not a parameter or input: it cannot be set in a scenario",
-                    v.name, v.causality
-                ),
-            );
+        if let Err(message) = settable(v) {
+            return cx.err(key.span(), message);
         }
-        let bad = |expected: &str| {
-            cx.err(
-                value.span(),
-                format!("{:?} expects {expected}, got {x}", v.name),
-            )
-        };
         if let toml::Value::Table(table) = x {
             let (base, step) = per_trial_values(cx, v, value.span(), table, trials)?;
             out.push(Setting {
@@ -980,53 +1058,9 @@ fn parameter_settings(
             });
             continue;
         }
-        let parsed = match (&v.kind, x) {
-            (VariableKind::Real { .. }, toml::Value::Float(f)) => Value::Real(*f),
-            (VariableKind::Real { .. }, toml::Value::Integer(i)) => Value::Real(*i as f64),
-            (VariableKind::Real { .. }, _) => return bad("a number"),
-            (VariableKind::Integer { .. }, toml::Value::Integer(i)) => match i32::try_from(*i) {
-                Ok(i) => Value::Integer(i),
-                Err(_) => return bad("a 32-bit integer"),
-            },
-            (VariableKind::Integer { .. }, _) => return bad("an integer"),
-            (VariableKind::Boolean { .. }, toml::Value::Boolean(b)) => Value::Boolean(*b),
-            (VariableKind::Boolean { .. }, _) => return bad("true or false"),
-            (VariableKind::Enumeration { declared_type, .. }, x) => {
-                let items = md
-                    .type_definitions
-                    .iter()
-                    .find(|t| &t.name == declared_type)
-                    .and_then(|t| match &t.kind {
-                        SimpleTypeKind::Enumeration { items, .. } => Some(items),
-                        _ => None,
-                    });
-                let names = items
-                    .map(|i| {
-                        i.iter()
-                            .map(|i| i.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    })
-                    .unwrap_or_default();
-                match x {
-                    toml::Value::String(s) => {
-                        match items.and_then(|i| i.iter().find(|i| &i.name == s)) {
-                            Some(item) => Value::Integer(item.value),
-                            None => return bad(&format!("one of {names}")),
-                        }
-                    }
-                    toml::Value::Integer(i) => {
-                        match items.and_then(|it| it.iter().find(|it| i64::from(it.value) == *i)) {
-                            Some(item) => Value::Integer(item.value),
-                            None => return bad(&format!("one of {names}")),
-                        }
-                    }
-                    _ => return bad(&format!("one of {names}")),
-                }
-            }
-            (VariableKind::String { .. }, _) => {
-                return bad("no value: String parameters are not supported");
-            }
+        let parsed = match convert(md, v, Literal::Toml(x)) {
+            Ok(parsed) => parsed,
+            Err(message) => return cx.err(value.span(), message),
         };
         if let Err(message) = check_value(md, v, &parsed) {
             return cx.err(value.span(), message);
@@ -1039,42 +1073,6 @@ fn parameter_settings(
         });
     }
     Ok(out)
-}
-
-/// Checks a value against what the model description allows for `var`: a finite number
-/// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
-/// an error the FMU may only report later, without the scenario's line).
-pub fn check_value(
-    md: &ModelDescription,
-    var: &ScalarVariable,
-    value: &Value,
-) -> Result<(), String> {
-    let x = match *value {
-        Value::Real(x) => x,
-        Value::Integer(n) => f64::from(n),
-        Value::Boolean(_) => return Ok(()),
-    };
-    let name = &var.name;
-    if !x.is_finite() {
-        return Err(format!("{name:?} = {x} is not a finite number"));
-    }
-    let (min, max) = md.range_of(var);
-    let range = format!(
-        "[{}, {}]",
-        min.map_or("-inf".to_owned(), |m| m.to_string()),
-        max.map_or("inf".to_owned(), |m| m.to_string())
-    );
-    if let Some(m) = min.filter(|&m| x < m) {
-        return Err(format!(
-            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
-        ));
-    }
-    if let Some(m) = max.filter(|&m| x > m) {
-        return Err(format!(
-            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
-        ));
-    }
-    Ok(())
 }
 
 /// A per-trial value `{ base = B, per_trial = S }` of a Real or Integer variable: B in
@@ -1196,6 +1194,32 @@ mod tests {
         Scenario::parse(&text, Path::new("s.toml"), |_| {
             ModelDescription::parse(MD).map_err(|e| e.to_string())
         })
+    }
+
+    #[test]
+    fn every_problem_is_reported_at_once_with_its_line() {
+        // Line 8: unknown variable; 10: Integer coupling; 16: bad parameter value (of FMU b,
+        // given after the connections); 18: a record of a missing variable.
+        let text = "step_size = 0.1\nstop_time = 1.0\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n\
+                    [[connection]]\nfrom = \"a.yr\"\n\
+                    to = \"b.nope\"\n\
+                    [[connection]]\nfrom = \"a.yi\"\nto = \"b.ui\"\n\
+                    [[fmu]]\nname = \"b\"\npath = \"b.fmu\"\n[fmu.parameters]\nsigma = -1.0\n\
+                    [record]\nvariables = [\"a.zz\"]\n";
+        let err = Scenario::parse(text, Path::new("s.toml"), |_| {
+            ModelDescription::parse(MD).map_err(|e| e.to_string())
+        })
+        .unwrap_err();
+        let lines: Vec<Option<usize>> = std::iter::once(err.line)
+            .chain(err.more.iter().map(|e| e.line))
+            .collect();
+        assert_eq!(lines, [Some(8), Some(10), Some(16), Some(18)], "{err}");
+        let shown = err.to_string();
+        assert_eq!(shown.lines().count(), 4, "{shown}");
+        assert!(shown.lines().all(|l| l.starts_with("s.toml:")), "{shown}");
+        assert!(shown.contains("has no variable \"nope\""), "{shown}");
+        assert!(shown.contains("below its declared min"), "{shown}");
+        assert!(shown.contains("\"a.zz\""), "{shown}");
     }
 
     #[test]

@@ -112,7 +112,9 @@ fn check_figures(dir: &Path) {
         let (names, _, texts) = parse_xml(&svg, f);
         assert_eq!(names.first().map(String::as_str), Some("svg"), "{f}");
         let title = texts.first().cloned().unwrap_or_default();
-        let (fig, t) = if let Some(t) = f.strip_prefix("line_") {
+        let (fig, t) = if f.starts_with("beyond_") {
+            ("Beyond the paper", "")
+        } else if let Some(t) = f.strip_prefix("line_") {
             ("Fig. 6", t)
         } else if let Some(t) = f.strip_prefix("circle_") {
             ("Fig. 7", t)
@@ -223,6 +225,8 @@ fn paper_study_writes_every_file_and_learning_works() {
             "4",
             "--circle-duration",
             "4",
+            "--robust-trials",
+            "6",
             "--fmu-dir",
         ])
         .arg(fmu_dir())
@@ -232,8 +236,33 @@ fn paper_study_writes_every_file_and_learning_works() {
         .unwrap();
     assert!(status.success());
     let root = out.path();
-    for f in ["report.md", "convergence.csv"] {
+    for f in ["report.md", "convergence.csv", "robust.csv"] {
         assert!(root.join(f).is_file(), "{f}");
+    }
+    // Beyond the paper: every case ran its 6 trials (the plant did not stop any in 6), and
+    // the robust cases learn on both paths.
+    let robust = orchestrator::paper::robust::load(root).unwrap();
+    for (c, s) in orchestrator::paper::robust::CASES.iter().zip(&robust) {
+        assert_eq!(s.max.len(), 6, "{}", c.slug);
+        assert!(s.stopped.is_none(), "{}", c.slug);
+        assert!(
+            !c.robust || s.max[5] < 0.1 * s.max[0],
+            "{}: trial 5 {} vs trial 0 {}",
+            c.slug,
+            s.max[5],
+            s.max[0]
+        );
+        let case = root
+            .join("robust")
+            .join(if c.trajectory == ckcm::TrajectoryKind::Line {
+                "line"
+            } else {
+                "circle"
+            })
+            .join(c.slug);
+        for f in ["scenario.toml", "summary.csv", "outcome.toml"] {
+            assert!(case.join(f).is_file(), "{}/{f}", c.slug);
+        }
     }
     check_figures(&root.join("figures"));
     check_html(&root.join("report.html"));
@@ -306,6 +335,8 @@ fn paper_study_writes_every_file_and_learning_works() {
             "4",
             "--circle-duration",
             "4",
+            "--robust-trials",
+            "6",
             "--jobs",
             "1",
             "--fmu-dir",

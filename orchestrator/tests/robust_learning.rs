@@ -7,7 +7,6 @@ mod common;
 
 use std::path::Path;
 
-use fmi2::import::Fmu;
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 
@@ -70,8 +69,10 @@ to = "controller.memory"
 [record]
 variables = ["controller.memory_next"]
 
+# The true error (reference − noise-free length), also under sensor noise.
 [metrics]
-error = "controller.error"
+reference = "controller.length_ref"
+length = "plant.length_true"
 "#,
         controller = path("HlcsController"),
         plant = path("CkcmPlant"),
@@ -81,14 +82,7 @@ error = "controller.error"
 /// Runs `trials` trials of `text`; per trial the max leg error (m), the memory_next written
 /// (sample-major, as the memory buffer) and the memory left for the next trial.
 fn run(text: &str, trials: usize) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(text, Path::new("robust.toml"), |path| {
-        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })
-    .unwrap();
+    let (scenario, fmus) = Scenario::open_text(text, Path::new("robust.toml")).unwrap();
     let mut master = Master::new(&scenario, fmus, false).unwrap();
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();
@@ -147,31 +141,43 @@ fn without_an_update_table_the_memory_is_the_paper_bit_for_bit() {
     assert_ne!(robust[0].1, robust[0].2);
 }
 
-/// Bounds on the circle: ≤ 0.025 mm from trial 10 on, no rise after trial 3, and with
-/// `early` ≤ 0.035 mm from trial 3 on. (Measured with the heavier platform and with the
-/// lower gains, trial 3 is at 0.041 and 0.038 mm: learning is slower there, so only the
-/// nominal case is held to the early bound.)
-fn assert_circle_bounds(controller_params: &str, plant_params: &str, what: &str, early: bool) {
+/// Trials of the circle runs: the bounds hold from trial 10 to trial 200.
+const CIRCLE_TRIALS: usize = 201;
+
+/// Bounds on the circle over 201 trials: ≤ 0.025 mm from trial 10 to 200, with `early`
+/// ≤ 0.035 mm in trial 3, and with `steady` no rise above 1 µm after trial 3. (Measured with
+/// the heavier platform and with the lower gains, trial 3 is at 0.041 and 0.038 mm: learning
+/// is slower there, so only the nominal and the noise cases are held to the trial-3 bound.
+/// Under σ = 1e-5 m single trials move by a few µm with the noise.)
+fn assert_circle_bounds(
+    controller_params: &str,
+    plant_params: &str,
+    what: &str,
+    early: bool,
+    steady: bool,
+) {
     let text = scenario_toml("circle", 5.0, ROBUST, controller_params, plant_params);
-    let max_mm = max_errors_mm(&run(&text, 30));
+    let max_mm = max_errors_mm(&run(&text, CIRCLE_TRIALS));
     assert!(
         max_mm[0] > 1.0,
         "{what}: trial 0 shows the mismatch: {max_mm:?}"
     );
     assert!(
-        !early || max_mm[3..].iter().all(|&e| e <= 0.035),
-        "{what}: above 0.035 mm from trial 3: {max_mm:?}"
+        !early || max_mm[3] <= 0.035,
+        "{what}: above 0.035 mm in trial 3: {max_mm:?}"
     );
     assert!(
         max_mm[10..].iter().all(|&e| e <= 0.025),
         "{what}: above 0.025 mm from trial 10: {max_mm:?}"
     );
-    assert_no_rise_after_trial_3(&max_mm, what);
+    if steady {
+        assert_no_rise_after_trial_3(&max_mm, what);
+    }
 }
 
 #[test]
 fn circle_robust_meets_the_bounds() {
-    assert_circle_bounds("", "", "circle", true);
+    assert_circle_bounds("", "", "circle", true, true);
 }
 
 #[test]
@@ -182,6 +188,7 @@ fn circle_robust_meets_the_bounds_with_a_heavier_platform() {
         &format!("platform_mass = {mass:?}"),
         "platform mass × 1.3",
         false,
+        true,
     );
 }
 
@@ -194,7 +201,33 @@ fn circle_robust_meets_the_bounds_with_learning_gains_scaled_by_0_75() {
         g.gamma * 0.75,
         g.psi * 0.75
     );
-    assert_circle_bounds(&params, "", "learning gains × 0.75", false);
+    assert_circle_bounds(&params, "", "learning gains × 0.75", false, true);
+}
+
+/// White noise of σ on the measured lengths, fresh in every trial.
+fn noise(sigma: f64) -> String {
+    format!("length_noise_sigma = {sigma:?}\nnoise_seed = {{ base = 1000, per_trial = 1 }}")
+}
+
+#[test]
+fn circle_robust_meets_the_bounds_with_sensor_noise() {
+    assert_circle_bounds("", &noise(1e-5), "σ = 1e-5 m", true, false);
+    assert_circle_bounds("", &noise(1e-6), "σ = 1e-6 m", true, true);
+}
+
+#[test]
+fn line_robust_with_sensor_noise_meets_the_bounds_by_trial_29() {
+    for (sigma, bound, steady) in [(1e-6, 0.001, true), (1e-5, 0.01, false)] {
+        let text = scenario_toml("line", 15.0, ROBUST, "", &noise(sigma));
+        let max_mm = max_errors_mm(&run(&text, 30));
+        assert!(
+            max_mm[29] <= bound,
+            "σ = {sigma} m: trial 29 above {bound} mm: {max_mm:?}"
+        );
+        if steady {
+            assert_no_rise_after_trial_3(&max_mm, &format!("line, σ = {sigma} m"));
+        }
+    }
 }
 
 #[test]

@@ -12,6 +12,7 @@ pub fn run(args: PaperArgs) -> Result<()> {
         fmu_dir: args.fmu_dir,
         out_dir: args.out.clone(),
         trials: args.trials,
+        robust_trials: args.robust_trials,
         line_duration: args.line_duration,
         circle_duration: args.circle_duration,
         resume: args.resume,

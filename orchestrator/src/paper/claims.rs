@@ -89,7 +89,7 @@ pub struct Tables {
     pub trials: usize,
 }
 
-fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> PaperError {
+pub(super) fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> PaperError {
     PaperError::Table {
         path: path.to_owned(),
         line,
@@ -98,10 +98,10 @@ fn csv_error(path: &Path, line: u64, message: impl Into<String>) -> PaperError {
 }
 
 /// A CSV row: its 1-based line and its fields by column name.
-type Row = (u64, BTreeMap<String, String>);
+pub(super) type Row = (u64, BTreeMap<String, String>);
 
 /// Reads a CSV with a header into rows.
-fn read_rows(path: &Path) -> Result<Vec<Row>, PaperError> {
+pub(super) fn read_rows(path: &Path) -> Result<Vec<Row>, PaperError> {
     let mut reader = csv::Reader::from_path(path).map_err(|e| csv_error(path, 0, e.to_string()))?;
     let header: Vec<String> = reader
         .headers()
@@ -144,7 +144,7 @@ fn key(
     Ok((traj_slug(kind), scheme, trial))
 }
 
-fn number(
+pub(super) fn number(
     path: &Path,
     line: u64,
     row: &BTreeMap<String, String>,

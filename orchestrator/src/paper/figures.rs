@@ -784,5 +784,6 @@ pub fn figure_files() -> Vec<String> {
     for s in ["max", "lambda", "lambda_rho5", "rms"] {
         v.push(format!("convergence_{s}.svg"));
     }
+    v.extend(super::robust::figure_files());
     v
 }

@@ -7,13 +7,15 @@
 //! - [`metrics`]: per-trial figures derived from the recordings (`trial_metrics.csv`);
 //! - [`claims`]: the paper's claims graded from the CSVs;
 //! - [`figures`]: the SVG figures;
-//! - [`report`]: `report.md` from a template, and the self-contained `report.html`.
+//! - [`report`]: `report.md` from a template, and the self-contained `report.html`;
+//! - [`robust`]: beyond the paper, the robust learning update against the paper's.
 
 pub mod cases;
 pub mod claims;
 pub mod figures;
 pub mod metrics;
 pub mod report;
+pub mod robust;
 pub mod scenario;
 
 use std::path::PathBuf;
@@ -24,10 +26,10 @@ use ckcm::{Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
-use self::cases::{TRAJECTORIES, traj_slug, trial_csv};
+use self::cases::{TRAJECTORIES, traj_slug};
 use self::figures::CaseData;
 pub use self::scenario::{recorded_trials, scenario_toml};
-use crate::campaign::CampaignError;
+use crate::campaign::{CampaignError, trial_csv};
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
 use crate::scenario::ScenarioError;
 
@@ -52,6 +54,8 @@ pub struct PaperOptions {
     pub jobs: usize,
     /// λ-norm weight ρ of the campaigns' summaries, 1/s (default 1).
     pub rho: f64,
+    /// Trials of each case beyond the paper (the robust update; ≥ 5, default 50).
+    pub robust_trials: usize,
 }
 
 /// A study failure.
@@ -91,6 +95,12 @@ pub enum PaperError {
 
 /// Runs all six cases, then writes the tables, figures and the report.
 pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
+    if opts.robust_trials < 5 {
+        return Err(PaperError::Invalid(format!(
+            "--robust-trials {} is too few: the robust section compares trials 0 to 4 at least",
+            opts.robust_trials
+        )));
+    }
     if opts.trials < 5 {
         return Err(PaperError::Invalid(format!(
             "--trials {} is too few: the claims need at least 5 trials",
@@ -112,52 +122,30 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
             message: e.to_string(),
         })?;
     }
-    // The six campaigns are independent: run them on `jobs` threads. Each opens its own
-    // FMUs, so no FMI instance ever crosses a thread, and results do not depend on `jobs`.
-    // The same thread then reads the case's recordings back and derives its metrics.
     let cases: Vec<(TrajectoryKind, Scheme)> = TRAJECTORIES
         .into_iter()
         .flat_map(|k| Scheme::ALL.map(|s| (k, s)))
         .collect();
-    let jobs = opts.jobs.clamp(1, cases.len());
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<Result<CaseData, PaperError>>>> =
-        cases.iter().map(|_| Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(kind, scheme)) = cases.get(i) else {
-                        break;
-                    };
-                    let result = scenario::run_case(opts, kind, scheme, jobs == 1)
-                        .and_then(|r| case_data(opts, r));
-                    if opts.progress && jobs > 1 && result.is_ok() {
-                        eprintln!("done: {} / {}", traj_slug(kind), scheme.label());
-                    }
-                    let failed = result.is_err();
-                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(result);
-                    if failed {
-                        // Take no further cases; the ones running finish their trial loop.
-                        next.store(cases.len(), Ordering::Relaxed);
-                        break;
-                    }
-                }
-            });
-        }
-    });
-    let mut data = Vec::new();
-    for slot in slots {
-        match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
-            Some(Ok(r)) => data.push(r),
-            Some(Err(e)) => return Err(e),
-            None => {}
-        }
-    }
-    if data.len() != cases.len() {
-        return Err(PaperError::Invalid("a campaign did not run".into()));
-    }
+    let data = run_parallel(opts, cases.len(), |i, show_progress| {
+        let (kind, scheme) = cases[i];
+        let r = scenario::run_case(opts, kind, scheme, show_progress)
+            .and_then(|r| case_data(opts, r))?;
+        Ok((r, format!("{} / {}", traj_slug(kind), scheme.label())))
+    })?;
+    let robust = run_parallel(opts, robust::CASES.len(), |i, show_progress| {
+        let c = &robust::CASES[i];
+        let r = robust::run_case(opts, i, show_progress)?;
+        Ok((
+            r,
+            format!(
+                "beyond the paper: {} / {}",
+                traj_slug(c.trajectory),
+                c.label
+            ),
+        ))
+    })?;
+    robust::write_table(&opts.out_dir, &robust)?;
+    drop(robust);
     let results: Vec<CaseResult> = data.iter().map(|d| d.result.clone()).collect();
     write_convergence_table(opts, &results)?;
     let metric_rows: Vec<(TrajectoryKind, Scheme, &[metrics::TrialMetrics])> = data
@@ -167,8 +155,61 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     metrics::write_trial_metrics(&opts.out_dir.join("trial_metrics.csv"), &metric_rows)?;
     figures::write_figures(opts, &data)?;
     drop(data);
+    robust::write_figures(&opts.out_dir.join("figures"), &robust::load(&opts.out_dir)?)?;
     report::write_report(opts)?;
     Ok(results)
+}
+
+/// Runs `n` independent campaigns on `opts.jobs` threads and returns their results in order.
+/// Each campaign opens its own FMUs, so no FMI instance ever crosses a thread, and results
+/// do not depend on `jobs`. `run(i, show_progress)` runs campaign i and names it for the
+/// progress line; after a failure no further campaign starts and the first error is returned.
+fn run_parallel<T: Send>(
+    opts: &PaperOptions,
+    n: usize,
+    run: impl Fn(usize, bool) -> Result<(T, String), PaperError> + Sync,
+) -> Result<Vec<T>, PaperError> {
+    let jobs = opts.jobs.clamp(1, n.max(1));
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<Result<T, PaperError>>>> =
+        (0..n).map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let result = run(i, jobs == 1).map(|(r, what)| {
+                        if opts.progress && jobs > 1 {
+                            eprintln!("done: {what}");
+                        }
+                        r
+                    });
+                    let failed = result.is_err();
+                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(result);
+                    if failed {
+                        // Take no further cases; the ones running finish their trial loop.
+                        next.store(n, Ordering::Relaxed);
+                        break;
+                    }
+                }
+            });
+        }
+    });
+    let mut out = Vec::with_capacity(n);
+    for slot in slots {
+        match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
+            Some(Ok(r)) => out.push(r),
+            Some(Err(e)) => return Err(e),
+            None => {}
+        }
+    }
+    if out.len() != n {
+        return Err(PaperError::Invalid("a campaign did not run".into()));
+    }
+    Ok(out)
 }
 
 /// Reads a finished case's recordings and derives their metrics.

@@ -20,7 +20,8 @@ pub const TEMPLATE: &str = include_str!("report.md");
 /// Writes `report.md` and `report.html` from the CSVs in the study directory.
 pub fn write_report(opts: &PaperOptions) -> Result<(), PaperError> {
     let tables = Tables::load(&opts.out_dir)?;
-    let values = values(opts, &tables)?;
+    let mut values = values(opts, &tables)?;
+    values.extend(super::robust::values(&super::robust::load(&opts.out_dir)?));
     let md = fill(TEMPLATE, &values)?;
     write_atomic(&opts.out_dir.join("report.md"), |w| {
         w.write_all(md.as_bytes())
