@@ -1,0 +1,96 @@
+//! The master's library interface (docs/model.md §6) as a caller of `orchestrator::master`
+//! sees it, with the packaged FMUs: the memory channels' names, the memory it hands to the
+//! next trial, replacing that memory (resume), and the recording's columns.
+
+mod common;
+
+use std::path::Path;
+
+use orchestrator::master::Master;
+use orchestrator::scenario::Scenario;
+
+/// A 0.3 s line under HLCS recording the controller's error and the plant's lengths.
+fn scenario_toml() -> String {
+    let path = |name: &str| {
+        std::fs::canonicalize(common::built_fmu(name))
+            .unwrap()
+            .display()
+            .to_string()
+    };
+    format!(
+        r#"
+step_size = 0.001
+stop_time = 0.3
+trials = 2
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "line"
+duration = 0.3
+learning = true
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+
+[record]
+variables = ["controller.error", "plant.length"]
+interval = 1
+"#,
+        controller = path("HlcsController"),
+        plant = path("CkcmPlant"),
+    )
+}
+
+fn names(prefix: &str) -> Vec<String> {
+    (1..=6).map(|i| format!("{prefix}[{i}]")).collect()
+}
+
+#[test]
+fn master_reports_its_memory_and_columns() {
+    let text = scenario_toml();
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("master-api.toml")).unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+
+    let mut expected = names("controller.error");
+    expected.extend(names("plant.length"));
+    assert_eq!(master.memory_names(), names("controller.memory_next"));
+
+    // Before the first trial the memory is zero; after it, the read buffer holds the
+    // memory_next the controller produced, one row of six per sample.
+    assert_eq!(master.memory().len(), 1);
+    assert_eq!(master.memory()[0].len(), 300 * 6);
+    assert!(master.memory()[0].iter().all(|&u| u == 0.0));
+    let mut recording = master.new_recording();
+    let mut signals = master.new_signals();
+    master
+        .run_trial(0, Some(&mut recording), &mut signals, |_| {})
+        .unwrap();
+    assert_eq!(recording.names, expected);
+    assert_eq!(recording.len(), 300);
+    let learned = master.memory()[0].to_vec();
+    assert!(learned.iter().any(|&u| u != 0.0));
+
+    // set_memory replaces the read buffer that the next trial uses.
+    let replaced: Vec<f64> = (0..300 * 6).map(|k| k as f64 * 1e-3).collect();
+    master.set_memory(&[replaced.clone()]);
+    assert_eq!(master.memory()[0], replaced.as_slice());
+}
