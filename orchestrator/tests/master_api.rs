@@ -94,3 +94,45 @@ fn master_reports_its_memory_and_columns() {
     master.set_memory(&[replaced.clone()]);
     assert_eq!(master.memory()[0], replaced.as_slice());
 }
+
+/// A memory channel fed by the only FMU in the scenario: the master copies the producer's
+/// output into the memory right after the producer's own step, whatever the other FMUs are.
+/// (With a plant after the controller, copying after the plant's step instead would copy the
+/// same values; alone, the controller is the only FMU that steps.)
+#[test]
+fn memory_of_a_lone_controller_is_written_after_its_step() {
+    let controller = std::fs::canonicalize(common::built_fmu("HlcsController")).unwrap();
+    let text = format!(
+        r#"
+step_size = 0.001
+stop_time = 0.1
+trials = 1
+
+[[fmu]]
+name = "controller"
+path = "{}"
+[fmu.parameters]
+trajectory = "line"
+duration = 0.1
+learning = true
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+"#,
+        controller.display()
+    );
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("lone-controller.toml")).unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+    let mut signals = master.new_signals();
+    master.run_trial(0, None, &mut signals, |_| {}).unwrap();
+    // The lengths stay at their start values while the reference moves, so the error and
+    // with it memory_next are non-zero from the first samples on.
+    let memory = master.memory()[0];
+    assert_eq!(memory.len(), 100 * 6);
+    assert!(
+        memory.iter().filter(|&&u| u != 0.0).count() > 300,
+        "the memory of the next trial is mostly zero: {:?}",
+        &memory[..12]
+    );
+}
