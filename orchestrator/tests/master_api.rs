@@ -91,7 +91,7 @@ fn master_reports_its_memory_and_columns() {
 
     // set_memory replaces the read buffer that the next trial uses.
     let replaced: Vec<f64> = (0..300 * 6).map(|k| k as f64 * 1e-3).collect();
-    master.set_memory(&[replaced.clone()]);
+    master.set_memory(std::slice::from_ref(&replaced));
     assert_eq!(master.memory()[0], replaced.as_slice());
 }
 
