@@ -19,16 +19,13 @@ use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
 pub mod md {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
+use md::enums::{
+    TRAJECTORY_CIRCLE, TRAJECTORY_EXTERNAL, TRAJECTORY_HOLD, TRAJECTORY_ITEMS, TRAJECTORY_LINE,
+};
 use md::vr;
 
 /// Prefix of the nominal-model parameters.
 const MODEL_PREFIX: &str = "model.";
-
-/// Enumeration items of the `Trajectory` type.
-const TRAJECTORY_HOLD: i32 = 1;
-const TRAJECTORY_LINE: i32 = 2;
-const TRAJECTORY_CIRCLE: i32 = 3;
-const TRAJECTORY_EXTERNAL: i32 = 4;
 
 /// The controller: variable values plus, once initialised, the control law state.
 #[derive(Debug, Clone)]
@@ -98,11 +95,15 @@ impl HlcsController {
             TRAJECTORY_EXTERNAL => None,
             other => {
                 return Err(ModelError::error(format!(
-                    "trajectory = {other} is not a Trajectory item (1 hold, 2 line, 3 circle, 4 external)"
+                    "trajectory = {other} is not a Trajectory item ({TRAJECTORY_ITEMS})"
                 )));
             }
         }
-        .map(|kind| Trajectory { kind, duration, home_height });
+        .map(|kind| Trajectory {
+            kind,
+            duration,
+            home_height,
+        });
         Ok(Sim {
             law: Hlcs::new(model, self.settings()),
             trajectory,

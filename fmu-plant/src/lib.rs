@@ -22,11 +22,8 @@ pub mod md {
     #![allow(clippy::approx_constant)]
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
+use md::enums::{INTEGRATOR_DORMAND_PRINCE, INTEGRATOR_ITEMS, INTEGRATOR_RK4};
 use md::vr;
-
-/// Enumeration items of the `Integrator` type.
-const INTEGRATOR_RK4: i32 = 1;
-const INTEGRATOR_DORMAND_PRINCE: i32 = 2;
 
 /// The plant: variable values plus, once initialised, the simulated mechanism.
 #[derive(Debug, Clone)]
@@ -139,7 +136,7 @@ impl CkcmPlant {
                 }))
             }
             other => Err(ModelError::error(format!(
-                "integrator = {other} is not an Integrator item (1 rk4, 2 dormand_prince)"
+                "integrator = {other} is not an Integrator item ({INTEGRATOR_ITEMS})"
             ))),
         }
     }
