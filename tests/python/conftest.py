@@ -27,6 +27,8 @@ FMU_SOURCES = [
     "fmi2/Cargo.toml",
     "fmi2/build.rs",
     "fmi2/src",
+    "fmu-build/Cargo.toml",
+    "fmu-build/src",
     "fmu-plant/Cargo.toml",
     "fmu-plant/build.rs",
     "fmu-plant/src",

@@ -34,6 +34,8 @@ pub const FMU_SOURCES: &[&str] = &[
     "fmi2/Cargo.toml",
     "fmi2/build.rs",
     "fmi2/src",
+    "fmu-build/Cargo.toml",
+    "fmu-build/src",
     "fmu-plant/Cargo.toml",
     "fmu-plant/build.rs",
     "fmu-plant/src",
