@@ -119,15 +119,33 @@ impl FmuCrate {
     pub fn load_model_description(&self) -> Result<ModelDescription, Error> {
         let path = &self.model_description;
         let md = ModelDescription::from_file(path).map_err(Error::ModelDescription)?;
-        let problems = md.validate();
+        let mut problems: Vec<String> = md.validate().iter().map(ToString::to_string).collect();
+        problems.extend(log_category_problem(&md));
         if !problems.is_empty() {
             return Err(Error::Invalid {
                 path: path.clone(),
-                problems: problems.iter().map(ToString::to_string).collect(),
+                problems,
             });
         }
         Ok(md)
     }
+}
+
+/// The export glue logs under the names of `fmi2::export::LOG_CATEGORIES`; a model
+/// description must declare exactly those, in that order, or masters filter (and show)
+/// messages under names the FMU never uses.
+fn log_category_problem(md: &ModelDescription) -> Option<String> {
+    let declared: Vec<&str> = md.log_categories.iter().map(|c| c.name.as_str()).collect();
+    let glue: Vec<String> = fmi2::export::LOG_CATEGORIES
+        .iter()
+        .map(|c| c.to_string_lossy().into_owned())
+        .collect();
+    (declared != glue).then(|| {
+        format!(
+            "<LogCategories> declares {declared:?}; the export glue logs under {glue:?}, \
+             which it must declare in this order"
+        )
+    })
 }
 
 /// Every FMU crate among the members of the workspace whose root is `root`, in the order

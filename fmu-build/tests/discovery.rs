@@ -110,3 +110,31 @@ fn malformed_tables_are_errors_naming_the_manifest() {
     let err = workspace_fmus(dir).unwrap_err().to_string();
     assert!(err.contains("glob"), "{err}");
 }
+
+#[test]
+fn log_categories_other_than_the_glue_logs_under_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let xml = std::fs::read_to_string(
+        workspace_root().join("tests/fixtures/foreign-fmu/modelDescription.xml"),
+    )
+    .unwrap();
+    let line =
+        "<Category name=\"logStatusDiscard\" description=\"Calls that return fmi2Discard\"/>";
+    assert!(xml.contains(line));
+    write(dir, "md.xml", &xml.replace(line, ""));
+    write(
+        dir,
+        "Cargo.toml",
+        "[package]\nname = \"x\"\n[package.metadata.fmu]\nmodel-description = \"md.xml\"\n\
+         [lib]\ncrate-type = [\"cdylib\"]\n",
+    );
+    let fmu = FmuCrate::read(dir).unwrap().unwrap();
+    let err = fmu.load_model_description().unwrap_err().to_string();
+    assert!(
+        err.contains("md.xml")
+            && err.contains("<LogCategories>")
+            && err.contains("logStatusDiscard"),
+        "{err}"
+    );
+}
