@@ -209,14 +209,8 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
 /// times the same (non-zero-memory) trial.
 fn line_trial(c: &mut Criterion) {
     let text = line_scenario_toml();
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(&text, Path::new("bench-line.toml"), |path| {
-        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })
-    .expect("valid scenario");
+    let (scenario, fmus) =
+        Scenario::open_text(&text, Path::new("bench-line.toml")).expect("valid scenario");
     let mut master = Master::new(&scenario, fmus, false).expect("master");
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();

@@ -8,4 +8,6 @@ pub mod master;
 pub mod output;
 pub mod paper;
 pub mod scenario;
+pub mod simulate;
 pub mod sweep;
+pub mod variables;

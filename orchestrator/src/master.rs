@@ -11,7 +11,8 @@ use ckcm::learning::MemoryUpdate;
 use fmi2::import::{Fmu, ImportError, Instance};
 
 use crate::output::Recording;
-use crate::scenario::{Port, Scenario, Value};
+use crate::scenario::{Port, Scenario};
+use crate::variables::set_value;
 
 /// A failure while running, naming the trial, the time and the call.
 #[derive(Debug, thiserror::Error)]
@@ -383,12 +384,8 @@ impl<'s> Master<'s> {
             // Per-trial values (e.g. a noise seed) make each trial draw fresh noise while
             // trial k always gets the same values, also on resume.
             for s in &spec.settings {
-                match s.value_in_trial(trial) {
-                    Value::Real(x) => inst.set_real(&[s.value_reference], &[x]).map(|_| ()),
-                    Value::Integer(x) => inst.set_integer(&[s.value_reference], &[x]).map(|_| ()),
-                    Value::Boolean(x) => inst.set_boolean(&[s.value_reference], &[x]).map(|_| ()),
-                }
-                .map_err(setup("setting parameters"))?;
+                set_value(inst, s.value_reference, &s.value_in_trial(trial))
+                    .map_err(setup("setting parameters"))?;
             }
             inst.setup_experiment(None, sc.start_time, Some(sc.stop_time))
                 .map_err(setup("fmi2SetupExperiment"))?;

@@ -9,7 +9,10 @@ use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2::export::{Causality, VarType};
-use fmi2::md::{ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use fmi2::import::Fmu;
+
+use crate::variables::{Literal, check_value, convert, resolve, settable};
+use fmi2::md::{ModelDescription, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -158,13 +161,7 @@ fn default_home() -> f64 {
     0.5
 }
 
-/// A value to set before initialization.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-}
+pub use crate::variables::Value;
 
 /// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
@@ -182,13 +179,13 @@ impl Setting {
     /// The value set before trial `k` (docs/model.md §10). Integer values were checked at
     /// validation to fit every trial of the scenario.
     pub fn value_in_trial(&self, k: usize) -> Value {
-        match (self.value, self.per_trial) {
-            (Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
-                (i64::from(base) + k as i64 * i64::from(step))
+        match (&self.value, &self.per_trial) {
+            (&Value::Integer(base), Some(Value::Integer(step))) => Value::Integer(
+                (i64::from(base) + k as i64 * i64::from(*step))
                     .clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32,
             ),
-            (Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
-            (v, _) => v,
+            (&Value::Real(base), Some(Value::Real(step))) => Value::Real(base + k as f64 * step),
+            (v, _) => v.clone(),
         }
     }
 }
@@ -338,18 +335,30 @@ impl Ctx<'_> {
 }
 
 impl Scenario {
-    /// Reads and validates a scenario file; `describe` yields the model description of an
-    /// FMU path (the caller opens the FMU, so validation and loading share one unzip).
-    pub fn load(
-        file: &Path,
-        describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
-    ) -> Result<Scenario, ScenarioError> {
+    /// Reads the scenario file, opens every FMU it names and validates the scenario against
+    /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
+    /// in scenario order.
+    pub fn open(file: &Path) -> Result<(Scenario, String, Vec<Fmu>), ScenarioError> {
         let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
             file: file.to_path_buf(),
             line: None,
             message: format!("cannot read the scenario: {e}"),
         })?;
-        Self::parse(&text, file, describe)
+        let (scenario, fmus) = Self::open_text(&text, file)?;
+        Ok((scenario, text, fmus))
+    }
+
+    /// [`Scenario::open`] for scenario `text` said to come from `file` (for messages and
+    /// relative FMU paths). Each FMU is unzipped once, for validation and for running.
+    pub fn open_text(text: &str, file: &Path) -> Result<(Scenario, Vec<Fmu>), ScenarioError> {
+        let mut fmus = Vec::new();
+        let scenario = Self::parse(text, file, |path| {
+            let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
+            let md = fmu.model_description().clone();
+            fmus.push(fmu);
+            Ok(md)
+        })?;
+        Ok((scenario, fmus))
     }
 
     /// Validates scenario `text` read from `file` (used for messages and relative paths).
@@ -843,27 +852,6 @@ fn check_link(
     Ok(())
 }
 
-/// Scalars named `base` or `base[i]` (sorted by i) in `md`.
-fn scalars<'a>(md: &'a ModelDescription, base: &str) -> Vec<&'a fmi2::md::ScalarVariable> {
-    if let Some(v) = md.model_variables.iter().find(|v| v.name == base) {
-        return vec![v];
-    }
-    let mut found: Vec<(usize, &fmi2::md::ScalarVariable)> = md
-        .model_variables
-        .iter()
-        .filter_map(|v| {
-            let rest = v
-                .name
-                .strip_prefix(base)?
-                .strip_prefix('[')?
-                .strip_suffix(']')?;
-            rest.parse::<usize>().ok().map(|i| (i, v))
-        })
-        .collect();
-    found.sort_by_key(|(i, _)| *i);
-    found.into_iter().map(|(_, v)| v).collect()
-}
-
 fn resolve_port(
     cx: &Ctx<'_>,
     fmus: &[FmuSpec],
@@ -889,7 +877,7 @@ fn resolve_port(
         );
     };
     let md = &mds[fmu];
-    let vars = scalars(md, var);
+    let vars = resolve(md, var);
     if vars.is_empty() {
         return cx.err(
             r.span(),
@@ -929,7 +917,7 @@ fn parameter_settings(
     trials: usize,
 ) -> Result<Vec<Setting>, ScenarioError> {
     let name = key.get_ref();
-    let vars = scalars(md, name);
+    let vars = resolve(md, name);
     if vars.is_empty() {
         return cx.err(
             key.span(),
@@ -955,21 +943,9 @@ fn parameter_settings(
     }
     let mut out = Vec::new();
     for (v, x) in vars.iter().zip(values) {
-        if !matches!(v.causality, Causality::Parameter | Causality::Input) {
-            return cx.err(
-                key.span(),
-                format!(
-                    "{:?} is {:?}, not a parameter or input: it cannot be set in a scenario",
-                    v.name, v.causality
-                ),
-            );
+        if let Err(message) = settable(v) {
+            return cx.err(key.span(), message);
         }
-        let bad = |expected: &str| {
-            cx.err(
-                value.span(),
-                format!("{:?} expects {expected}, got {x}", v.name),
-            )
-        };
         if let toml::Value::Table(table) = x {
             let (base, step) = per_trial_values(cx, v, value.span(), table, trials)?;
             out.push(Setting {
@@ -980,53 +956,9 @@ fn parameter_settings(
             });
             continue;
         }
-        let parsed = match (&v.kind, x) {
-            (VariableKind::Real { .. }, toml::Value::Float(f)) => Value::Real(*f),
-            (VariableKind::Real { .. }, toml::Value::Integer(i)) => Value::Real(*i as f64),
-            (VariableKind::Real { .. }, _) => return bad("a number"),
-            (VariableKind::Integer { .. }, toml::Value::Integer(i)) => match i32::try_from(*i) {
-                Ok(i) => Value::Integer(i),
-                Err(_) => return bad("a 32-bit integer"),
-            },
-            (VariableKind::Integer { .. }, _) => return bad("an integer"),
-            (VariableKind::Boolean { .. }, toml::Value::Boolean(b)) => Value::Boolean(*b),
-            (VariableKind::Boolean { .. }, _) => return bad("true or false"),
-            (VariableKind::Enumeration { declared_type, .. }, x) => {
-                let items = md
-                    .type_definitions
-                    .iter()
-                    .find(|t| &t.name == declared_type)
-                    .and_then(|t| match &t.kind {
-                        SimpleTypeKind::Enumeration { items, .. } => Some(items),
-                        _ => None,
-                    });
-                let names = items
-                    .map(|i| {
-                        i.iter()
-                            .map(|i| i.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    })
-                    .unwrap_or_default();
-                match x {
-                    toml::Value::String(s) => {
-                        match items.and_then(|i| i.iter().find(|i| &i.name == s)) {
-                            Some(item) => Value::Integer(item.value),
-                            None => return bad(&format!("one of {names}")),
-                        }
-                    }
-                    toml::Value::Integer(i) => {
-                        match items.and_then(|it| it.iter().find(|it| i64::from(it.value) == *i)) {
-                            Some(item) => Value::Integer(item.value),
-                            None => return bad(&format!("one of {names}")),
-                        }
-                    }
-                    _ => return bad(&format!("one of {names}")),
-                }
-            }
-            (VariableKind::String { .. }, _) => {
-                return bad("no value: String parameters are not supported");
-            }
+        let parsed = match convert(md, v, Literal::Toml(x)) {
+            Ok(parsed) => parsed,
+            Err(message) => return cx.err(value.span(), message),
         };
         if let Err(message) = check_value(md, v, &parsed) {
             return cx.err(value.span(), message);
@@ -1039,42 +971,6 @@ fn parameter_settings(
         });
     }
     Ok(out)
-}
-
-/// Checks a value against what the model description allows for `var`: a finite number
-/// for a Real, within the declared `min` and `max` (FMI 2.0 §2.2.7: a value outside them is
-/// an error the FMU may only report later, without the scenario's line).
-pub fn check_value(
-    md: &ModelDescription,
-    var: &ScalarVariable,
-    value: &Value,
-) -> Result<(), String> {
-    let x = match *value {
-        Value::Real(x) => x,
-        Value::Integer(n) => f64::from(n),
-        Value::Boolean(_) => return Ok(()),
-    };
-    let name = &var.name;
-    if !x.is_finite() {
-        return Err(format!("{name:?} = {x} is not a finite number"));
-    }
-    let (min, max) = md.range_of(var);
-    let range = format!(
-        "[{}, {}]",
-        min.map_or("-inf".to_owned(), |m| m.to_string()),
-        max.map_or("inf".to_owned(), |m| m.to_string())
-    );
-    if let Some(m) = min.filter(|&m| x < m) {
-        return Err(format!(
-            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
-        ));
-    }
-    if let Some(m) = max.filter(|&m| x > m) {
-        return Err(format!(
-            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
-        ));
-    }
-    Ok(())
 }
 
 /// A per-trial value `{ base = B, per_trial = S }` of a Real or Integer variable: B in

@@ -13,7 +13,6 @@ mod common;
 use std::path::Path;
 
 use fmi2::alloc_count::{CountingAllocator, counted};
-use fmi2::import::Fmu;
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 
@@ -100,14 +99,7 @@ fn trials_after_the_first_do_not_allocate_with_the_robust_update() {
 
 fn trials_after_the_first_do_not_allocate_with(update: &str) {
     let text = scenario_toml(update);
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(&text, Path::new("alloc-line.toml"), |path| {
-        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })
-    .unwrap();
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("alloc-line.toml")).unwrap();
     let mut master = Master::new(&scenario, fmus, false).unwrap();
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();

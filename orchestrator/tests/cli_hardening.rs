@@ -56,7 +56,7 @@ fn scenario_values_outside_the_declared_range_or_not_finite_name_file_and_line()
     let err = run_fails(tmp.path(), &s);
     assert!(err.contains("s.toml:8:"), "{err}");
     assert!(
-        err.contains("\"mass\" = NaN is not a finite number"),
+        err.contains("'nan' is not a finite number ('mass' is a Real)"),
         "{err}"
     );
     let s = scenario(tmp.path(), "damping = -inf", "\"osc.x\"");

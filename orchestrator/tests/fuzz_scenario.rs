@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 
 use fmi2::md::ModelDescription;
 use orchestrator::campaign::memory_estimate;
-use orchestrator::scenario::{Scenario, Value, check_value};
+use orchestrator::scenario::Scenario;
+use orchestrator::variables::{Value, check_value};
 use proptest::prelude::*;
 
 fn root() -> PathBuf {

@@ -61,14 +61,7 @@ const MEASURED_ERROR: &str = "error = \"controller.error\"";
 fn run(text: &str, dir: &Path, resume: bool, stop_after: Option<usize>) -> Vec<TrialSummary> {
     std::fs::create_dir_all(dir).unwrap();
     let source = dir.join("in.toml");
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(text, &source, |p| {
-        let fmu = Fmu::open(p).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
+    let (scenario, fmus) = Scenario::open_text(text, &source).unwrap_or_else(|e| panic!("{e}"));
     run_campaign(
         &scenario,
         text,

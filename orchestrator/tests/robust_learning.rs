@@ -7,7 +7,6 @@ mod common;
 
 use std::path::Path;
 
-use fmi2::import::Fmu;
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 
@@ -83,14 +82,7 @@ length = "plant.length_true"
 /// Runs `trials` trials of `text`; per trial the max leg error (m), the memory_next written
 /// (sample-major, as the memory buffer) and the memory left for the next trial.
 fn run(text: &str, trials: usize) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(text, Path::new("robust.toml"), |path| {
-        let fmu = Fmu::open(path).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })
-    .unwrap();
+    let (scenario, fmus) = Scenario::open_text(text, Path::new("robust.toml")).unwrap();
     let mut master = Master::new(&scenario, fmus, false).unwrap();
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();

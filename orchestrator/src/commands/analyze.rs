@@ -20,7 +20,7 @@ use crate::args::AnalyzeArgs;
 
 /// Runs `analyze`.
 pub fn run(args: AnalyzeArgs) -> Result<()> {
-    let (scenario, _, fmus) = super::run::load(&args.scenario)?;
+    let (scenario, _, fmus) = Scenario::open(&args.scenario)?;
     let problem = problem(&args, &scenario, &fmus)?;
     let analysis = analyse(&problem).with_context(|| format!("{}", args.scenario.display()))?;
     let out = args.out.clone().unwrap_or_else(|| {
@@ -146,6 +146,8 @@ fn values(md: &ModelDescription, spec: &FmuSpec) -> BTreeMap<String, f64> {
             Value::Real(x) => x,
             Value::Integer(i) => f64::from(i),
             Value::Boolean(b) => f64::from(u8::from(b)),
+            // The mechanism has no text parameters.
+            Value::String(_) => continue,
         };
         v.insert(s.name.clone(), x);
     }

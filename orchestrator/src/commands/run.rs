@@ -2,32 +2,15 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
-use fmi2::import::Fmu;
+use anyhow::Result;
 use orchestrator::campaign::{CampaignOptions, run_campaign};
 use orchestrator::scenario::Scenario;
 
 use crate::args::RunArgs;
 
-/// Opens every FMU a scenario names, validating the scenario against their model
-/// descriptions; the FMUs come back in scenario order.
-pub fn load(path: &std::path::Path) -> Result<(Scenario, String, Vec<Fmu>)> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut opened: Vec<(PathBuf, Fmu)> = Vec::new();
-    let scenario = Scenario::parse(&text, path, |fmu_path| {
-        let fmu = Fmu::open(fmu_path).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        opened.push((fmu_path.to_path_buf(), fmu));
-        Ok(md)
-    })?;
-    let fmus = opened.into_iter().map(|(_, f)| f).collect();
-    Ok((scenario, text, fmus))
-}
-
 /// Runs `run`.
 pub fn run(args: RunArgs) -> Result<()> {
-    let (mut scenario, text, fmus) = load(&args.scenario)?;
+    let (mut scenario, text, fmus) = Scenario::open(&args.scenario)?;
     if let Some(trials) = args.trials {
         anyhow::ensure!(trials >= 1, "--trials must be at least 1");
         scenario.trials = trials;

@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 
 use ckcm::TrajectoryKind;
-use fmi2::import::Fmu;
 
 use super::cases::{CaseResult, Scheme, case_dir, traj_slug};
 use super::{PaperError, PaperOptions};
@@ -199,13 +198,7 @@ pub(super) fn run_scenario(
     show_progress: bool,
 ) -> Result<Vec<TrialSummary>, PaperError> {
     let source: PathBuf = dir.join("scenario.toml");
-    let mut fmus = Vec::new();
-    let scenario = Scenario::parse(text, &source, |p| {
-        let fmu = Fmu::open(p).map_err(|e| e.to_string())?;
-        let md = fmu.model_description().clone();
-        fmus.push(fmu);
-        Ok(md)
-    })?;
+    let (scenario, fmus) = Scenario::open_text(text, &source)?;
     if opts.progress && show_progress {
         eprintln!("{what}");
     }
