@@ -219,7 +219,8 @@ struct Progress {
     fingerprint: String,
 }
 
-fn trial_csv(dir: &Path, k: usize) -> PathBuf {
+/// The recording of trial `k` in campaign folder `dir`: the one place that names it.
+pub fn trial_csv(dir: &Path, k: usize) -> PathBuf {
     dir.join("trials").join(format!("trial_{k:03}.csv"))
 }
 
@@ -401,10 +402,10 @@ pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), S
     if need <= limit.saturating_mul(1 << 20) {
         return Ok(());
     }
-    Err(ScenarioError {
-        file: scenario.source.clone(),
-        line: scenario.stop_time_line,
-        message: format!(
+    Err(ScenarioError::new(
+        scenario.source.clone(),
+        scenario.stop_time_line,
+        format!(
             "{} steps per trial (stop_time = {} s, step_size = {} s) need about {:.1} MiB of \
              memory, more than {from} of {limit} MiB; shorten the trial, enlarge the step, \
              or raise the limit with --memory-limit-mib or memory_limit_mib in the scenario",
@@ -413,7 +414,7 @@ pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), S
             scenario.step_size,
             need as f64 / f64::from(1 << 20),
         ),
-    })
+    ))
 }
 
 /// Counts file operations and aborts the process at the requested one (see

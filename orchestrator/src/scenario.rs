@@ -16,14 +16,51 @@ use fmi2::md::{ModelDescription, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
-/// A scenario problem: file, line (when known) and message.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}{}: {message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+/// A scenario problem: file, line (when known) and message; validation goes on after a
+/// problem where it can, and the further problems it finds are in `more`, so one run shows
+/// them all (as `fmpy validate` does for a model description).
+#[derive(Debug, Clone, PartialEq)]
 pub struct ScenarioError {
     pub file: PathBuf,
     pub line: Option<usize>,
     pub message: String,
+    /// Further problems of the same file, in the order found.
+    pub more: Vec<ScenarioError>,
 }
+
+impl ScenarioError {
+    /// One problem.
+    pub fn new(file: impl Into<PathBuf>, line: Option<usize>, message: impl Into<String>) -> Self {
+        ScenarioError {
+            file: file.into(),
+            line,
+            message: message.into(),
+            more: Vec::new(),
+        }
+    }
+
+    fn write_one(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+/// One problem per line.
+impl std::fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.write_one(f)?;
+        for e in &self.more {
+            writeln!(f)?;
+            e.write_one(f)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ScenarioError {}
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -318,6 +355,8 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
 struct Ctx<'a> {
     file: &'a Path,
     text: &'a str,
+    /// Problems found so far; validation goes on past each where it can.
+    problems: std::cell::RefCell<Vec<ScenarioError>>,
 }
 
 impl Ctx<'_> {
@@ -326,11 +365,34 @@ impl Ctx<'_> {
         span: std::ops::Range<usize>,
         message: impl Into<String>,
     ) -> Result<T, ScenarioError> {
-        Err(ScenarioError {
-            file: self.file.to_path_buf(),
-            line: (span.end > 0).then(|| line_of(self.text, span.start)),
-            message: message.into(),
-        })
+        Err(ScenarioError::new(
+            self.file,
+            (span.end > 0).then(|| line_of(self.text, span.start)),
+            message,
+        ))
+    }
+
+    /// The value, or `None` with the problem kept for the final report.
+    fn keep<T>(&self, r: Result<T, ScenarioError>) -> Option<T> {
+        match r {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.problems.borrow_mut().push(e);
+                None
+            }
+        }
+    }
+
+    /// Every problem kept so far as one error (sorted by line), or `Ok` if there is none.
+    fn check(&self) -> Result<(), ScenarioError> {
+        let mut all = std::mem::take(&mut *self.problems.borrow_mut());
+        if all.is_empty() {
+            return Ok(());
+        }
+        all.sort_by_key(|e| e.line.unwrap_or(0));
+        let mut first = all.remove(0);
+        first.more = all;
+        Err(first)
     }
 }
 
@@ -339,10 +401,8 @@ impl Scenario {
     /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
     /// in scenario order.
     pub fn open(file: &Path) -> Result<(Scenario, String, Vec<Fmu>), ScenarioError> {
-        let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
-            file: file.to_path_buf(),
-            line: None,
-            message: format!("cannot read the scenario: {e}"),
+        let text = std::fs::read_to_string(file).map_err(|e| {
+            ScenarioError::new(file, None, format!("cannot read the scenario: {e}"))
         })?;
         let (scenario, fmus) = Self::open_text(&text, file)?;
         Ok((scenario, text, fmus))
@@ -367,11 +427,13 @@ impl Scenario {
         file: &Path,
         mut describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
     ) -> Result<Scenario, ScenarioError> {
-        let cx = Ctx { file, text };
-        let raw: RawScenario = toml::from_str(text).map_err(|e| ScenarioError {
-            file: file.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)),
-            message: e.message().to_string(),
+        let cx = Ctx {
+            file,
+            text,
+            problems: Default::default(),
+        };
+        let raw: RawScenario = toml::from_str(text).map_err(|e| {
+            ScenarioError::new(file, e.span().map(|s| line_of(text, s.start)), e.message())
         })?;
         let h = *raw.step_size.get_ref();
         if !(h.is_finite() && h > 0.0) {
@@ -420,27 +482,37 @@ impl Scenario {
             return cx.err(0..0, "no [[fmu]] entries");
         }
         let base = file.parent().unwrap_or(Path::new("."));
+        // From here on a problem is kept and validation goes on, so that one run reports
+        // every bad entry; only an FMU that cannot be opened stops it (every reference to
+        // it would fail too).
         let mut fmus = Vec::new();
         let mut mds = Vec::new();
         for f in &raw.fmus {
             let name = f.name.get_ref();
-            if name.is_empty() || name.contains('.') || name.contains(char::is_whitespace) {
-                return cx.err(
-                    f.name.span(),
-                    format!("FMU name {name:?} must be non-empty, without dots or spaces"),
-                );
-            }
-            if fmus.iter().any(|x: &FmuSpec| &x.name == name) {
-                return cx.err(f.name.span(), format!("FMU name {name:?} is used twice"));
-            }
-            let path = base.join(f.path.get_ref());
-            let md = match describe(&path) {
-                Ok(md) => md,
-                Err(e) => return cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+            let opened = (|| {
+                if name.is_empty() || name.contains('.') || name.contains(char::is_whitespace) {
+                    return cx.err(
+                        f.name.span(),
+                        format!("FMU name {name:?} must be non-empty, without dots or spaces"),
+                    );
+                }
+                if fmus.iter().any(|x: &FmuSpec| &x.name == name) {
+                    return cx.err(f.name.span(), format!("FMU name {name:?} is used twice"));
+                }
+                let path = base.join(f.path.get_ref());
+                match describe(&path) {
+                    Ok(md) => Ok((path, md)),
+                    Err(e) => cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+                }
+            })();
+            let Some((path, md)) = cx.keep(opened) else {
+                continue;
             };
             let mut settings = Vec::new();
             for (key, value) in &f.parameters {
-                settings.extend(parameter_settings(&cx, &md, key, value, trials)?);
+                if let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) {
+                    settings.extend(s);
+                }
             }
             fmus.push(FmuSpec {
                 name: name.clone(),
@@ -449,13 +521,23 @@ impl Scenario {
             });
             mds.push(md);
         }
+        if fmus.len() != raw.fmus.len() {
+            cx.check()?;
+        }
         let resolve = |r: &Spanned<String>, what: &str| resolve_port(&cx, &fmus, &mds, r, what);
         let mut connections = Vec::new();
+        let mut fed_by: Vec<&RawLink> = Vec::new();
         for c in &raw.connections {
-            let from = resolve(&c.from, "connection from")?;
-            let to = resolve(&c.to, "connection to")?;
-            check_link(&cx, &mds, c, &from, &to, "connection")?;
-            connections.push(Link { from, to });
+            let link = (|| {
+                let from = resolve(&c.from, "connection from")?;
+                let to = resolve(&c.to, "connection to")?;
+                check_link(&cx, &mds, c, &from, &to, "connection")?;
+                Ok(Link { from, to })
+            })();
+            if let Some(link) = cx.keep(link) {
+                connections.push(link);
+                fed_by.push(c);
+            }
         }
         let raw_memory: Vec<RawLink> = raw
             .memory
@@ -467,87 +549,105 @@ impl Scenario {
             .collect();
         let mut memory = Vec::new();
         for (c, m) in raw_memory.iter().zip(&raw.memory) {
-            let from = resolve(&c.from, "memory from")?;
-            let to = resolve(&c.to, "memory to")?;
-            check_link(&cx, &mds, c, &from, &to, "memory channel")?;
-            let update = match &m.update {
-                None => None,
-                Some(u) => Some(parse_update(&cx, u, steps, h)?),
-            };
-            memory.push(MemoryChannel {
-                link: Link { from, to },
-                update,
-            });
+            let channel = (|| {
+                let from = resolve(&c.from, "memory from")?;
+                let to = resolve(&c.to, "memory to")?;
+                check_link(&cx, &mds, c, &from, &to, "memory channel")?;
+                let update = match &m.update {
+                    None => None,
+                    Some(u) => Some(parse_update(&cx, u, steps, h)?),
+                };
+                Ok(MemoryChannel {
+                    link: Link { from, to },
+                    update,
+                })
+            })();
+            if let Some(channel) = cx.keep(channel) {
+                memory.push(channel);
+                fed_by.push(c);
+            }
         }
         // An input fed twice would silently depend on the order of the entries.
         let mut fed = BTreeSet::new();
         for (link, raw_link) in connections
             .iter()
             .chain(memory.iter().map(|m| &m.link))
-            .zip(raw.connections.iter().chain(&raw_memory))
+            .zip(fed_by)
         {
-            for vr in &link.to.value_references {
-                if !fed.insert((link.to.fmu, *vr)) {
-                    return cx.err(
-                        raw_link.to.span(),
-                        format!(
-                            "input {:?} is fed by more than one connection",
-                            raw_link.to.get_ref()
-                        ),
-                    );
-                }
+            if link
+                .to
+                .value_references
+                .iter()
+                .any(|vr| !fed.insert((link.to.fmu, *vr)))
+            {
+                cx.keep::<()>(cx.err(
+                    raw_link.to.span(),
+                    format!(
+                        "input {:?} is fed by more than one connection",
+                        raw_link.to.get_ref()
+                    ),
+                ));
             }
         }
         let mut ports: Vec<Port> = Vec::new();
         let mut recorded: BTreeMap<String, String> = BTreeMap::new();
         for r in &raw.record.variables {
-            let p = resolve(r, "record")?;
-            // A variable listed twice would give two CSV columns of one name: refused, so
-            // the scenario says exactly what each column is.
-            for name in &p.names {
-                if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+            let port = (|| {
+                let p = resolve(r, "record")?;
+                // A variable listed twice would give two CSV columns of one name: refused,
+                // so the scenario says exactly what each column is.
+                for name in &p.names {
+                    if let Some(by) = recorded.insert(name.clone(), r.get_ref().clone()) {
+                        return cx.err(
+                            r.span(),
+                            format!(
+                                "record: {name:?} is listed twice (already recorded by {by:?})"
+                            ),
+                        );
+                    }
+                }
+                if p.var_type != VarType::Real {
                     return cx.err(
                         r.span(),
-                        format!("record: {name:?} is listed twice (already recorded by {by:?})"),
+                        format!(
+                            "record: {:?} is not Real; only Real variables are recorded",
+                            r.get_ref()
+                        ),
                     );
                 }
+                Ok(p)
+            })();
+            if let Some(p) = cx.keep(port) {
+                ports.push(p);
             }
-            if p.var_type != VarType::Real {
-                return cx.err(
-                    r.span(),
-                    format!(
-                        "record: {:?} is not Real; only Real variables are recorded",
-                        r.get_ref()
-                    ),
-                );
-            }
-            ports.push(p);
         }
         let interval = *raw.record.interval.get_ref();
         if interval == 0 {
-            return cx.err(
+            cx.keep::<()>(cx.err(
                 raw.record.interval.span(),
                 "record.interval must be at least 1",
-            );
+            ));
         }
         let rec_trials = match &raw.record.trials {
             None => None,
             Some(t) => {
                 if let Some(bad) = t.get_ref().iter().find(|&&k| k >= trials) {
-                    return cx.err(
+                    cx.keep::<()>(cx.err(
                         t.span(),
                         format!(
                             "record.trials lists trial {bad}, but trials are numbered 0..{}",
                             trials - 1
                         ),
-                    );
+                    ));
                 }
                 Some(t.get_ref().iter().copied().collect())
             }
         };
-        let metrics = match &raw.metrics {
-            None => None,
-            Some(spanned) => {
+        let metrics = (|| {
+            let Some(spanned) = &raw.metrics else {
+                return Ok(None);
+            };
+            {
                 let m = spanned.get_ref();
                 let six = |r: &Spanned<String>, what: &str| {
                     let port = resolve(r, what)?;
@@ -600,14 +700,16 @@ impl Scenario {
                 if pose.is_some() != trajectory.is_some() {
                     return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
                 }
-                Some(Metrics {
+                Ok(Some(Metrics {
                     error,
                     rho,
                     pose,
                     trajectory,
-                })
+                }))
             }
-        };
+        })();
+        let metrics = cx.keep(metrics).flatten();
+        cx.check()?;
         Ok(Scenario {
             source: file.to_path_buf(),
             step_size: h,
@@ -1092,6 +1194,32 @@ mod tests {
         Scenario::parse(&text, Path::new("s.toml"), |_| {
             ModelDescription::parse(MD).map_err(|e| e.to_string())
         })
+    }
+
+    #[test]
+    fn every_problem_is_reported_at_once_with_its_line() {
+        // Line 8: unknown variable; 10: Integer coupling; 16: bad parameter value (of FMU b,
+        // given after the connections); 18: a record of a missing variable.
+        let text = "step_size = 0.1\nstop_time = 1.0\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n\
+                    [[connection]]\nfrom = \"a.yr\"\n\
+                    to = \"b.nope\"\n\
+                    [[connection]]\nfrom = \"a.yi\"\nto = \"b.ui\"\n\
+                    [[fmu]]\nname = \"b\"\npath = \"b.fmu\"\n[fmu.parameters]\nsigma = -1.0\n\
+                    [record]\nvariables = [\"a.zz\"]\n";
+        let err = Scenario::parse(text, Path::new("s.toml"), |_| {
+            ModelDescription::parse(MD).map_err(|e| e.to_string())
+        })
+        .unwrap_err();
+        let lines: Vec<Option<usize>> = std::iter::once(err.line)
+            .chain(err.more.iter().map(|e| e.line))
+            .collect();
+        assert_eq!(lines, [Some(8), Some(10), Some(16), Some(18)], "{err}");
+        let shown = err.to_string();
+        assert_eq!(shown.lines().count(), 4, "{shown}");
+        assert!(shown.lines().all(|l| l.starts_with("s.toml:")), "{shown}");
+        assert!(shown.contains("has no variable \"nope\""), "{shown}");
+        assert!(shown.contains("below its declared min"), "{shown}");
+        assert!(shown.contains("\"a.zz\""), "{shown}");
     }
 
     #[test]

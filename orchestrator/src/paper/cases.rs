@@ -116,8 +116,3 @@ pub struct CaseResult {
 pub fn case_dir(out: &Path, kind: TrajectoryKind, scheme: Scheme) -> PathBuf {
     out.join(traj_slug(kind)).join(scheme.slug())
 }
-
-/// The recording of trial `k` of a case.
-pub fn trial_csv(case_dir: &Path, k: usize) -> PathBuf {
-    case_dir.join("trials").join(format!("trial_{k:03}.csv"))
-}

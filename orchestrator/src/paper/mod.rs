@@ -26,10 +26,10 @@ use ckcm::{Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
-use self::cases::{TRAJECTORIES, traj_slug, trial_csv};
+use self::cases::{TRAJECTORIES, traj_slug};
 use self::figures::CaseData;
 pub use self::scenario::{recorded_trials, scenario_toml};
-use crate::campaign::CampaignError;
+use crate::campaign::{CampaignError, trial_csv};
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
 use crate::scenario::ScenarioError;
 

@@ -295,13 +295,8 @@ fn plan(spec: &SweepSpec, base: &BaseFmus) -> Result<Vec<(Scenario, String)>, Sw
                 source: Box::new(source),
             };
             let file = spec.source.with_file_name(format!("case_{i:04}.toml"));
-            let text = case_text(spec, base, i).map_err(|message| {
-                case_err(ScenarioError {
-                    file: file.clone(),
-                    line: None,
-                    message,
-                })
-            })?;
+            let text = case_text(spec, base, i)
+                .map_err(|message| case_err(ScenarioError::new(file.clone(), None, message)))?;
             let scenario = Scenario::parse(&text, &file, |p| base.md(p)).map_err(case_err)?;
             Ok((scenario, text))
         })
