@@ -9,16 +9,13 @@ fn main() {
     let nominal = Mechanism::new(Params::nominal()).unwrap();
     let h = 1e-3;
     for traj in [Trajectory::line(0.5), Trajectory::circle(0.5)] {
-        for (name, learning, psi) in [
-            ("PID", false, 7.5),
-            ("PD-ILC", true, 0.0),
-            ("HLCS", true, 7.5),
+        for (name, learning) in [
+            ("PID", LearningLaw::None),
+            ("PD-ILC", LearningLaw::PdType),
+            ("HLCS", LearningLaw::PidType),
         ] {
             let settings = ControlSettings {
-                gains: Gains {
-                    psi,
-                    ..Gains::default()
-                },
+                gains: Gains::default(),
                 learning,
                 feedforward: true,
             };

@@ -41,13 +41,53 @@ impl Default for Gains {
     }
 }
 
-/// Gains plus the two switches of the scheme.
+/// The iterative learning law: the memory u_{k+1}(t_n) a trial leaves for the next one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LearningLaw {
+    /// No learning: the memory passes through unchanged (u_{k+1} = u_k; zero from trial 0,
+    /// so PID feedback with feedforward only).
+    None,
+    /// PD-type ILC, the paper's comparison: u_{k+1} = u_k + Φe + Γė.
+    PdType,
+    /// PID-type ILC, the HLCS: u_{k+1} = u_k + Φe + Γė + ΨI (eq. 14). With Ψ = 0 it equals
+    /// the PD-type law.
+    PidType,
+}
+
+impl LearningLaw {
+    /// The FMU's `learning` switch: on is the PID-type law (its Ψ may be 0), off is none.
+    pub fn from_switch(learning: bool) -> Self {
+        if learning {
+            LearningLaw::PidType
+        } else {
+            LearningLaw::None
+        }
+    }
+
+    /// u_{k+1} at one sample from u_k, the error e, its rate ė and its integral I.
+    #[inline]
+    pub fn next_memory(
+        self,
+        g: &Gains,
+        memory: Vector6<f64>,
+        e: Vector6<f64>,
+        ed: Vector6<f64>,
+        integral: Vector6<f64>,
+    ) -> Vector6<f64> {
+        match self {
+            LearningLaw::None => memory,
+            LearningLaw::PdType => memory + e * g.phi + ed * g.gamma,
+            LearningLaw::PidType => memory + e * g.phi + ed * g.gamma + integral * g.psi,
+        }
+    }
+}
+
+/// Gains, the learning law and the feedforward switch.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControlSettings {
     pub gains: Gains,
-    /// Learning on: u_{k+1} = u_k + Φe + Γė + ΨI. Off: the memory is passed through unchanged
-    /// (u_{k+1} = u_k; zero from trial 0, i.e. "PID only"). Default on.
-    pub learning: bool,
+    /// The learning law. Default PID-type (the HLCS).
+    pub learning: LearningLaw,
     /// Add the model-based feedforward τ_a. Default on.
     pub feedforward: bool,
 }
@@ -56,7 +96,7 @@ impl Default for ControlSettings {
     fn default() -> Self {
         Self {
             gains: Gains::default(),
-            learning: true,
+            learning: LearningLaw::PidType,
             feedforward: true,
         }
     }
@@ -136,11 +176,10 @@ impl Hlcs {
             Vector6::zeros()
         };
         let force = e * g.kp + ed * g.kd + integral * g.ki + input.memory + feedforward;
-        let memory_next = if self.settings.learning {
-            input.memory + e * g.phi + ed * g.gamma + integral * g.psi
-        } else {
-            input.memory
-        };
+        let memory_next = self
+            .settings
+            .learning
+            .next_memory(g, input.memory, e, ed, integral);
         Ok((
             ControlOutput {
                 force,
@@ -168,5 +207,32 @@ impl Hlcs {
     /// Back to the start of a trial.
     pub fn reset(&mut self) {
         self.integral = Vector6::zeros();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_learning_law_adds_its_own_terms() {
+        let g = Gains {
+            phi: 2.0,
+            gamma: 3.0,
+            psi: 5.0,
+            ..Gains::default()
+        };
+        let v = |x: f64| Vector6::repeat(x);
+        let (u, e, ed, i) = (v(1.0), v(10.0), v(100.0), v(1000.0));
+        assert_eq!(LearningLaw::None.next_memory(&g, u, e, ed, i), v(1.0));
+        assert_eq!(LearningLaw::PdType.next_memory(&g, u, e, ed, i), v(321.0));
+        assert_eq!(LearningLaw::PidType.next_memory(&g, u, e, ed, i), v(5321.0));
+        let pd = Gains { psi: 0.0, ..g };
+        assert_eq!(
+            LearningLaw::PidType.next_memory(&pd, u, e, ed, i),
+            LearningLaw::PdType.next_memory(&pd, u, e, ed, i)
+        );
+        assert_eq!(LearningLaw::from_switch(true), LearningLaw::PidType);
+        assert_eq!(LearningLaw::from_switch(false), LearningLaw::None);
     }
 }

@@ -6,7 +6,9 @@
 //! packaged controller FMU in `orchestrator/tests/control_law.rs`.
 
 use ckcm::nalgebra::Vector6;
-use ckcm::{ControlInput, ControlSettings, Gains, Hlcs, Mechanism, Params, Pose, Trajectory};
+use ckcm::{
+    ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, Params, Pose, Trajectory,
+};
 
 const H: f64 = 1e-3;
 const T: f64 = 5.0;
@@ -61,7 +63,7 @@ fn law_term_by_term_mid_circle() {
     for (learning, feedforward) in [(true, true), (false, true), (true, false)] {
         let settings = ControlSettings {
             gains: GAINS,
-            learning,
+            learning: LearningLaw::from_switch(learning),
             feedforward,
         };
         let mut law = Hlcs::new(model, settings);

@@ -10,7 +10,9 @@
 //! a unit of its last digit; the two models agree to about 2e-5 relative on top of that.
 
 use ckcm::nalgebra::Vector6;
-use ckcm::{ControlInput, ControlSettings, Hlcs, Mechanism, Params, Rk4, State, Trajectory};
+use ckcm::{
+    ControlInput, ControlSettings, Hlcs, LearningLaw, Mechanism, Params, Rk4, State, Trajectory,
+};
 
 const H: f64 = 1e-3;
 
@@ -31,7 +33,7 @@ fn max_errors_mm(trajectory: Trajectory, learning: bool, trials: usize) -> Vec<f
     let plant = Mechanism::new(Params::default()).unwrap();
     let model = Mechanism::new(Params::nominal()).unwrap();
     let settings = ControlSettings {
-        learning,
+        learning: LearningLaw::from_switch(learning),
         ..ControlSettings::default()
     };
     let steps = (trajectory.duration / H).round() as usize;

@@ -1,7 +1,8 @@
 //! Everything FMI 2.0 for this project: the C types, the export glue the FMUs are
 //! built on, the import side the orchestrator uses, and modelDescription parsing.
 
-pub mod alloc_count;
+#![deny(clippy::undocumented_unsafe_blocks)]
+
 pub mod export;
 pub mod md;
 pub mod types;

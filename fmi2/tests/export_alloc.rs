@@ -5,9 +5,9 @@
 
 mod export_support;
 
+use alloc_count::{CountingAllocator, allocations};
 use export_support::{Fmu, Oscillator, status, vr};
 use fmi2::Status;
-use fmi2::alloc_count::{CountingAllocator, allocations};
 use fmi2::export::abi;
 
 #[global_allocator]

@@ -4,7 +4,7 @@
 
 mod import_support;
 
-use fmi2::alloc_count::{CountingAllocator, allocations};
+use alloc_count::{CountingAllocator, allocations};
 use fmi2::import::Fmu;
 
 #[global_allocator]

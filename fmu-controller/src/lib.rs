@@ -9,8 +9,8 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    ControlInput, ControlSettings, Gains, Hlcs, Mechanism, ParamError, Params, Pose, Reference,
-    Trajectory, TrajectoryKind,
+    ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, ParamError, Params, Pose,
+    Reference, Trajectory, TrajectoryKind,
 };
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
 use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
@@ -84,7 +84,7 @@ impl HlcsController {
                 gamma: r(vr::GAMMA),
                 psi: r(vr::PSI),
             },
-            learning: self.values.boolean(vr::LEARNING),
+            learning: LearningLaw::from_switch(self.values.boolean(vr::LEARNING)),
             feedforward: self.values.boolean(vr::FEEDFORWARD),
         }
     }

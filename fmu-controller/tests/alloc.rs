@@ -2,8 +2,8 @@
 //! allocation (line trajectory, learning on): checked with a counting global allocator while
 //! the model is driven through the safe `fmi2::export::Model` trait.
 
+use alloc_count::{CountingAllocator, allocations};
 use ckcm::{Mechanism, Params, Trajectory};
-use fmi2::alloc_count::{CountingAllocator, allocations};
 use fmi2::export::Model;
 use hlcs_controller::HlcsController;
 use hlcs_controller::md::VARIABLES;

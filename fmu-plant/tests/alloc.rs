@@ -2,10 +2,10 @@
 //! allocation, with either integrator: checked with a counting global allocator while the
 //! model is driven through the safe `fmi2::export::Model` trait.
 
+use alloc_count::{CountingAllocator, allocations};
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
 use ckcm_plant::md::VARIABLES;
-use fmi2::alloc_count::{CountingAllocator, allocations};
 use fmi2::export::Model;
 
 #[global_allocator]

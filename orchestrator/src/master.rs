@@ -128,10 +128,10 @@ impl Channel {
 #[derive(Debug)]
 pub struct Master<'s> {
     scenario: &'s Scenario,
-    // Instances borrow nothing from the Fmu values but need their libraries kept alive;
-    // declared before `fmus` so they are dropped (freed) first.
+    // Instances borrow nothing from the Fmu values but need their libraries and unpacked
+    // files kept alive: held, never read; declared before them so they are dropped first.
     instances: Vec<Instance>,
-    fmus: Vec<Fmu>,
+    _fmus: Vec<Fmu>,
     wiring: Vec<Wiring>,
     bus: Vec<f64>,
     channels: Vec<Channel>,
@@ -305,7 +305,7 @@ impl<'s> Master<'s> {
         Ok(Self {
             scenario,
             instances,
-            fmus,
+            _fmus: fmus,
             bus: vec![0.0; next],
             channels,
             row: vec![0.0; columns],
@@ -317,16 +317,6 @@ impl<'s> Master<'s> {
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
         })
-    }
-
-    /// Names of the recorded columns (after `time`).
-    pub fn column_names(&self) -> &[String] {
-        &self.column_names
-    }
-
-    /// The loaded FMUs, in scenario order.
-    pub fn fmus(&self) -> &[Fmu] {
-        &self.fmus
     }
 
     /// Names of the outputs that feed the memory channels, channel by channel.

@@ -8,8 +8,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
-use fmi2::export::{Causality, VarType};
 use fmi2::import::Fmu;
+use fmi2::md::{Causality, VarType};
 
 use crate::variables::{Literal, check_value, convert, resolve, settable};
 use fmi2::md::{ModelDescription, VariableKind};
@@ -1007,7 +1007,7 @@ fn resolve_port(
         var_type,
         sampled: vars
             .iter()
-            .all(|v| v.variability == fmi2::export::Variability::Discrete),
+            .all(|v| v.variability == fmi2::md::Variability::Discrete),
     })
 }
 

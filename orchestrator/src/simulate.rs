@@ -10,8 +10,8 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 use fmi2::Status;
-use fmi2::export::Causality;
 use fmi2::import::{Fmu, ImportError, Instance};
+use fmi2::md::Causality;
 use fmi2::md::{ModelDescription, ScalarVariable, VariableKind};
 
 use crate::master::STATUS_CATEGORIES;

@@ -3,8 +3,8 @@
 //! against its declaration, so that a name or a value means the same wherever it is written.
 
 use fmi2::Status;
-use fmi2::export::{Causality, Variability};
 use fmi2::import::{ImportError, Instance};
+use fmi2::md::{Causality, Variability};
 use fmi2::md::{Initial, Item, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 
 /// A value of a variable's base type.

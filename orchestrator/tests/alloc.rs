@@ -12,7 +12,7 @@ mod common;
 
 use std::path::Path;
 
-use fmi2::alloc_count::{CountingAllocator, counted};
+use alloc_count::{CountingAllocator, counted};
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 

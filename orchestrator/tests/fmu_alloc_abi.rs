@@ -12,7 +12,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use fmi2::alloc_count::{CountingAllocator, allocations, preloaded_allocations};
+use alloc_count::{CountingAllocator, allocations, preloaded_allocations};
 use fmi2::import::{Fmu, Instance};
 
 #[global_allocator]

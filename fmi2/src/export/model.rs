@@ -7,36 +7,7 @@
 
 use crate::types::Status;
 
-/// FMI base type of a variable.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum VarType {
-    Real,
-    Integer,
-    Boolean,
-    String,
-    Enumeration,
-}
-
-/// Causality as declared in the model description.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-/// Variability as declared in the model description.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
+pub use crate::md::{Causality, VarType, Variability};
 
 /// One scalar variable of the model, generated from `modelDescription/<Model>.xml`
 /// by the FMU crate's build script so the two never drift apart.

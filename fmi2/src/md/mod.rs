@@ -19,7 +19,36 @@ mod validate;
 
 use std::path::Path;
 
-pub use crate::export::{Causality, VarType, Variability};
+/// FMI base type of a variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+    String,
+    Enumeration,
+}
+
+/// Causality as declared in the model description.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+/// Variability as declared in the model description.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
 pub use error::{MdError, MdErrorKind, ParseEnumError, Problem};
 
 /// A parsed FMI 2.0 model description.

@@ -1,14 +1,16 @@
 //! A counting global allocator for the zero-allocation tests of every crate.
 //!
 //! FMI calls sit in 1 ms loops, so "no heap allocation per step" is a tested property. The
-//! allocator lives here because implementing `GlobalAlloc` is `unsafe`, and `unsafe` stays
-//! in this crate; a test installs it with
-//! `#[global_allocator] static A: fmi2::alloc_count::CountingAllocator = fmi2::alloc_count::CountingAllocator;`
+//! allocator is its own crate, used only as a dev-dependency, so that no shipped library
+//! carries it; a test installs it with
+//! `#[global_allocator] static A: alloc_count::CountingAllocator = alloc_count::CountingAllocator;`
 //! and measures with [`counted`].
 //!
 //! Counts are per thread, because the test harness runs tests on parallel threads and a
 //! global counter would charge one test with another's allocations. With the environment
 //! variable `CKCM_ALLOC_BACKTRACE` set, every counted allocation prints a backtrace.
+
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::backtrace::Backtrace;
@@ -93,7 +95,7 @@ pub fn counted<T>(f: impl FnOnce() -> T) -> (usize, T) {
 /// FMU's shared library has its own global allocator. Both end in the process's `malloc`,
 /// which the preloaded counter interposes, so this counts the library's allocations too.
 /// The first call looks the counter up (and may allocate); later calls only read it.
-#[cfg(all(feature = "import", target_os = "linux"))]
+#[cfg(target_os = "linux")]
 pub fn preloaded_allocations() -> Option<u64> {
     type Counter = unsafe extern "C" fn() -> std::ffi::c_ulong;
     static COUNTER: std::sync::OnceLock<Option<Counter>> = std::sync::OnceLock::new();
