@@ -5,6 +5,7 @@
 
 pub mod export;
 pub mod md;
+mod sys;
 pub mod types;
 
 #[cfg(feature = "import")]

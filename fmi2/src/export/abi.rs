@@ -179,13 +179,14 @@ fn to_fmi_bool(b: bool) -> Fmi2Boolean {
 // Functions without an instance
 // ---------------------------------------------------------------------------------------
 
-/// fmi2GetTypesPlatform: `"default"`.
-pub fn get_types_platform() -> *const c_char {
+/// fmi2GetTypesPlatform: `"default"` (generic only so that every entry of the function table
+/// has the same shape).
+pub fn get_types_platform<M>() -> *const c_char {
     TYPES_PLATFORM.as_ptr()
 }
 
-/// fmi2GetVersion: `"2.0"`.
-pub fn get_version() -> *const c_char {
+/// fmi2GetVersion: `"2.0"` (generic like [`get_types_platform`]).
+pub fn get_version<M>() -> *const c_char {
     FMI_VERSION.as_ptr()
 }
 

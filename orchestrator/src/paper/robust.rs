@@ -69,65 +69,19 @@ const fn case(
 use TrajectoryKind::{Circle, Line as LinePath};
 
 /// Every case, per path: unfiltered and robust first, then the robust variations.
+/// Columns: slug, path, label, robust update, noise σ (m), mass scale, learning-gain scale.
+#[rustfmt::skip]
 pub const CASES: [RobustCase; 10] = [
     case("unfiltered", LinePath, "unfiltered", false, 0.0, 1.0, 1.0),
     case("robust", LinePath, "robust", true, 0.0, 1.0, 1.0),
-    case(
-        "robust_noise_1e-6",
-        LinePath,
-        "robust, σ = 1e-6 m",
-        true,
-        1e-6,
-        1.0,
-        1.0,
-    ),
-    case(
-        "robust_noise_1e-5",
-        LinePath,
-        "robust, σ = 1e-5 m",
-        true,
-        1e-5,
-        1.0,
-        1.0,
-    ),
+    case("robust_noise_1e-6", LinePath, "robust, σ = 1e-6 m", true, 1e-6, 1.0, 1.0),
+    case("robust_noise_1e-5", LinePath, "robust, σ = 1e-5 m", true, 1e-5, 1.0, 1.0),
     case("unfiltered", Circle, "unfiltered", false, 0.0, 1.0, 1.0),
     case("robust", Circle, "robust", true, 0.0, 1.0, 1.0),
-    case(
-        "robust_noise_1e-6",
-        Circle,
-        "robust, σ = 1e-6 m",
-        true,
-        1e-6,
-        1.0,
-        1.0,
-    ),
-    case(
-        "robust_noise_1e-5",
-        Circle,
-        "robust, σ = 1e-5 m",
-        true,
-        1e-5,
-        1.0,
-        1.0,
-    ),
-    case(
-        "robust_mass_1.3",
-        Circle,
-        "robust, platform mass × 1.3",
-        true,
-        0.0,
-        1.3,
-        1.0,
-    ),
-    case(
-        "robust_gains_0.75",
-        Circle,
-        "robust, learning gains × 0.75",
-        true,
-        0.0,
-        1.0,
-        0.75,
-    ),
+    case("robust_noise_1e-6", Circle, "robust, σ = 1e-6 m", true, 1e-6, 1.0, 1.0),
+    case("robust_noise_1e-5", Circle, "robust, σ = 1e-5 m", true, 1e-5, 1.0, 1.0),
+    case("robust_mass_1.3", Circle, "robust, platform mass × 1.3", true, 0.0, 1.3, 1.0),
+    case("robust_gains_0.75", Circle, "robust, learning gains × 0.75", true, 0.0, 1.0, 0.75),
 ];
 
 /// Base of the per-trial noise seed: trial k draws with seed 1000 + k.
