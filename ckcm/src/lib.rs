@@ -24,7 +24,7 @@ pub use control::{ControlInput, ControlOutput, ControlSettings, Gains, Hlcs, Lea
 pub use dynamics::{DynamicsError, DynamicsTerms, JointSpaceDynamics};
 pub use integrate::{DormandPrince, IntegrationError, Integrator, Rk4, State};
 pub use kinematics::{FkError, FkOptions, LEGS, LegGeometry, Mechanism, Pose};
-pub use params::{Friction, Geometry, Legs, ParamError, Params, Platform};
+pub use params::{Friction, Geometry, Legs, ParamError, ParamProblem, Params, Platform};
 pub use trajectory::{Reference, Trajectory, TrajectoryKind};
 pub use workspace::{Workspace, WorkspaceError};
 

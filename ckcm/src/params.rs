@@ -157,21 +157,39 @@ impl Params {
     }
 }
 
-/// A rejected parameter, naming the field.
+/// A rejected or unknown parameter, naming it as docs/model.md and the FMU variables do.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ParamError {
-    #[error("parameter `{field}` = {value} is not finite")]
-    NotFinite { field: &'static str, value: f64 },
-    #[error("parameter `{field}` = {value} must be positive")]
-    NotPositive { field: &'static str, value: f64 },
-    #[error("parameter `{field}` = {value} must not be negative")]
-    Negative { field: &'static str, value: f64 },
-    #[error("parameter `{field}` = {value} is out of range: {reason}")]
-    OutOfRange {
-        field: &'static str,
-        value: f64,
-        reason: &'static str,
-    },
+#[error("parameter `{field}` {problem}")]
+pub struct ParamError {
+    /// The parameter's name, e.g. `rod_mass`, `platform_inertia[2]`. A caller that exposes
+    /// the fields under other names (the controller's `model.rod_mass`) renames it here.
+    pub field: String,
+    /// What is wrong with it.
+    pub problem: ParamProblem,
+}
+
+/// What is wrong with a parameter.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamProblem {
+    #[error("= {0} is not finite")]
+    NotFinite(f64),
+    #[error("= {0} must be positive")]
+    NotPositive(f64),
+    #[error("= {0} must not be negative")]
+    Negative(f64),
+    #[error("= {value} is out of range: {reason}")]
+    OutOfRange { value: f64, reason: &'static str },
+    #[error("is not a mechanism parameter (they are: {})", Params::FIELDS.join(", "))]
+    Unknown,
+}
+
+impl ParamError {
+    fn new(field: &str, problem: ParamProblem) -> Self {
+        Self {
+            field: field.to_owned(),
+            problem,
+        }
+    }
 }
 
 impl Params {
@@ -203,17 +221,17 @@ impl Params {
         ];
         for &(field, value) in positive.iter().chain(non_negative.iter()) {
             if !value.is_finite() {
-                return Err(ParamError::NotFinite { field, value });
+                return Err(ParamError::new(field, ParamProblem::NotFinite(value)));
             }
         }
         for (field, value) in positive {
             if value <= 0.0 {
-                return Err(ParamError::NotPositive { field, value });
+                return Err(ParamError::new(field, ParamProblem::NotPositive(value)));
             }
         }
         for (field, value) in non_negative {
             if value < 0.0 {
-                return Err(ParamError::Negative { field, value });
+                return Err(ParamError::new(field, ParamProblem::Negative(value)));
             }
         }
         // Pairs at 120°k ± θ: θ = 0 makes two legs share a joint, θ = 60° merges neighbouring pairs.
@@ -223,11 +241,13 @@ impl Params {
             ("platform_joint_offset", g.platform_joint_offset),
         ] {
             if value <= 1e-6 || value >= sixty - 1e-6 {
-                return Err(ParamError::OutOfRange {
+                return Err(ParamError::new(
                     field,
-                    value,
-                    reason: "joint pairs coincide unless 0 < offset < 60°",
-                });
+                    ParamProblem::OutOfRange {
+                        value,
+                        reason: "joint pairs coincide unless 0 < offset < 60°",
+                    },
+                ));
             }
         }
         Ok(())
@@ -235,10 +255,34 @@ impl Params {
 }
 
 impl Params {
+    /// The names [`Params::set_field`] accepts, one per scalar field.
+    pub const FIELDS: [&'static str; 19] = [
+        "base_radius",
+        "platform_radius",
+        "home_height",
+        "base_joint_offset",
+        "platform_joint_offset",
+        "platform_mass",
+        "platform_inertia[1]",
+        "platform_inertia[2]",
+        "platform_inertia[3]",
+        "cylinder_mass",
+        "cylinder_com",
+        "cylinder_inertia",
+        "rod_mass",
+        "rod_com",
+        "rod_inertia",
+        "viscous_friction",
+        "coulomb_friction",
+        "friction_velocity",
+        "gravity",
+    ];
+
     /// Sets the field with the docs/model.md / FMU variable name `name` (e.g. `rod_mass`,
-    /// `platform_inertia[2]`, angles in rad). Returns false for a name that is not a
-    /// mechanism parameter, so callers can map a whole variable table without a field list.
-    pub fn set_field(&mut self, name: &str, value: f64) -> bool {
+    /// `platform_inertia[2]`, angles in rad). A name that is not one of [`Params::FIELDS`]
+    /// is an error naming it, so a parameter renamed on one side only is caught instead of
+    /// silently keeping its default.
+    pub fn set_field(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
         let slot = match name {
             "base_radius" => &mut self.geometry.base_radius,
             "platform_radius" => &mut self.geometry.platform_radius,
@@ -259,10 +303,10 @@ impl Params {
             "coulomb_friction" => &mut self.friction.coulomb,
             "friction_velocity" => &mut self.friction.velocity,
             "gravity" => &mut self.gravity,
-            _ => return false,
+            _ => return Err(ParamError::new(name, ParamProblem::Unknown)),
         };
         *slot = value;
-        true
+        Ok(())
     }
 }
 
@@ -272,35 +316,44 @@ mod tests {
 
     #[test]
     fn set_field_reaches_every_field_and_validation_names_it() {
-        let names = [
-            "base_radius",
-            "platform_radius",
-            "home_height",
-            "base_joint_offset",
-            "platform_joint_offset",
-            "platform_mass",
-            "platform_inertia[1]",
-            "platform_inertia[2]",
-            "platform_inertia[3]",
-            "cylinder_mass",
-            "cylinder_com",
-            "cylinder_inertia",
-            "rod_mass",
-            "rod_com",
-            "rod_inertia",
-            "viscous_friction",
-            "coulomb_friction",
-            "friction_velocity",
-            "gravity",
-        ];
-        for name in names {
+        for name in Params::FIELDS {
             let mut p = Params::default();
-            assert!(p.set_field(name, 12345.0), "{name}");
+            p.set_field(name, 12345.0).unwrap();
             assert_ne!(p, Params::default(), "{name} changed nothing");
-            p.set_field(name, f64::NAN);
+            // Each name reaches a slot of its own.
+            for other in Params::FIELDS.iter().filter(|&&o| o != name) {
+                let mut q = Params::default();
+                q.set_field(other, 12345.0).unwrap();
+                assert_ne!(p, q, "{name} and {other} set the same field");
+            }
+            p.set_field(name, f64::NAN).unwrap();
             let err = p.validate().unwrap_err().to_string();
-            assert!(err.contains(name), "{name}: {err}");
+            assert!(err.contains(&format!("`{name}`")), "{name}: {err}");
         }
-        assert!(!Params::default().set_field("initial_pose[1]", 0.0));
+    }
+
+    #[test]
+    fn unknown_names_are_errors_naming_them() {
+        let mut p = Params::default();
+        let err = p.set_field("initial_pose[1]", 0.0).unwrap_err();
+        assert_eq!(err.field, "initial_pose[1]");
+        assert_eq!(err.problem, ParamProblem::Unknown);
+        let text = err.to_string();
+        assert!(
+            text.starts_with("parameter `initial_pose[1]` is not a mechanism parameter"),
+            "{text}"
+        );
+        assert!(text.contains("rod_mass"), "{text}");
+        assert_eq!(p, Params::default(), "nothing set");
+    }
+
+    #[test]
+    fn messages_read_as_before() {
+        let mut p = Params::default();
+        p.set_field("rod_mass", -1.0).unwrap();
+        assert_eq!(
+            p.validate().unwrap_err().to_string(),
+            "parameter `rod_mass` = -1 must not be negative"
+        );
     }
 }

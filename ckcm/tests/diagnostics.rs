@@ -36,7 +36,7 @@ fn overflowing_forces_are_named_as_such() {
     assert!(e.to_string().contains("forces overflow"), "{e}");
     // Gravity that overflows the same way (the FMUs bound it, the library does not).
     let mut p = Params::default();
-    p.set_field("gravity", 1e308);
+    p.set_field("gravity", 1e308).unwrap();
     let heavy = Mechanism::new(p).unwrap();
     let e = heavy
         .forward_dynamics(&heavy.home(), &Vector6::zeros(), &Vector6::zeros())

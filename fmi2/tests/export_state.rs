@@ -339,10 +339,13 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
         &sealed(guid),
         &format!("but this FMU is 'Oscillator' with GUID '{GUID}'"),
     );
-    let mut state = body.clone();
     let at = state_code_offset();
-    state[at..at + 4].copy_from_slice(&7u32.to_le_bytes());
-    expect(&sealed(state), "invalid FMI state code 7");
+    // 6 is Fatal: no snapshot is taken there, so none may bring an instance into it.
+    for code in [6u32, 7] {
+        let mut state = body.clone();
+        state[at..at + 4].copy_from_slice(&code.to_le_bytes());
+        expect(&sealed(state), &format!("invalid FMI state code {code}"));
+    }
     let mut flags = body.clone();
     flags[at + 4..at + 8].copy_from_slice(&0x100u32.to_le_bytes());
     expect(&sealed(flags), "unknown flag bits 0x100");

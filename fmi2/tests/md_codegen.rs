@@ -40,6 +40,14 @@ fn generated_constants_match_the_description() {
     assert_eq!(generated::vr::X_4, 14);
     assert_eq!(generated::vr::TOTAL_MASS, 25);
 
+    assert_eq!(generated::enums::TRAJECTORY_HOLD, 1);
+    assert_eq!(generated::enums::TRAJECTORY_LINE, 2);
+    assert_eq!(generated::enums::TRAJECTORY_CIRCLE, 3);
+    assert_eq!(
+        generated::enums::TRAJECTORY_ITEMS,
+        "1 hold, 2 line, 3 circle"
+    );
+
     assert_eq!(generated::VARIABLES.len(), 18);
     let x4 = generated::VARIABLES
         .iter()

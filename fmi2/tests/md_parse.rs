@@ -75,6 +75,10 @@ fn valid_fixture_parses_into_expected_structs() {
         }
         other => panic!("Trajectory is {other:?}"),
     }
+    assert_eq!(md.enumeration_item("trajectory", "circle"), Some(3));
+    assert_eq!(md.enumeration_item("trajectory", "external"), None);
+    assert_eq!(md.enumeration_item("total_mass", "circle"), None);
+    assert_eq!(md.enumeration_item("no_such_variable", "line"), None);
     assert_eq!(md.log_categories.len(), 2);
     assert_eq!(md.log_categories[1].name, "logAll");
     let de = md.default_experiment.as_ref().unwrap();

@@ -9,26 +9,49 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, Params, Pose, Reference,
-    Trajectory, TrajectoryKind,
+    ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, ParamError, Params, Pose,
+    Reference, Trajectory, TrajectoryKind,
 };
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
+use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 
 /// Generated from `modelDescription/HlcsController.xml` by the build script.
 pub mod md {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
+use md::enums::{
+    TRAJECTORY_CIRCLE, TRAJECTORY_EXTERNAL, TRAJECTORY_HOLD, TRAJECTORY_ITEMS, TRAJECTORY_LINE,
+};
 use md::vr;
 
 /// Prefix of the nominal-model parameters.
 const MODEL_PREFIX: &str = "model.";
 
-/// Enumeration items of the `Trajectory` type.
-const TRAJECTORY_HOLD: i32 = 1;
-const TRAJECTORY_LINE: i32 = 2;
-const TRAJECTORY_CIRCLE: i32 = 3;
-const TRAJECTORY_EXTERNAL: i32 = 4;
+/// A nominal-model parameter error, naming the field by its variable (`model.rod_mass`).
+fn model_param_error(e: ParamError) -> ModelError {
+    ModelError::error(
+        ParamError {
+            field: format!("{MODEL_PREFIX}{}", e.field),
+            ..e
+        }
+        .to_string(),
+    )
+}
+
+/// The nominal model from the `model.*` Real parameters among `variables`; a `model.*`
+/// name that is not a mechanism field is an error naming the variable.
+fn nominal_params(variables: &[VarSpec], values: &Values) -> ModelResult<Params> {
+    let mut p = Params::nominal();
+    for v in variables {
+        if let Some(field) = v.name.strip_prefix(MODEL_PREFIX) {
+            if v.causality == Causality::Parameter && v.var_type == VarType::Real {
+                p.set_field(field, values.real(v.value_reference))
+                    .map_err(model_param_error)?;
+            }
+        }
+    }
+    Ok(p)
+}
 
 /// The controller: variable values plus, once initialised, the control law state.
 #[derive(Debug, Clone)]
@@ -46,17 +69,8 @@ struct Sim {
 }
 
 impl HlcsController {
-    /// The nominal model from the `model.*` parameters.
-    fn params(&self) -> Params {
-        let mut p = Params::nominal();
-        for v in md::VARIABLES {
-            if let Some(field) = v.name.strip_prefix(MODEL_PREFIX) {
-                if v.causality == Causality::Parameter && v.var_type == VarType::Real {
-                    p.set_field(field, self.values.real(v.value_reference));
-                }
-            }
-        }
-        p
+    fn params(&self) -> ModelResult<Params> {
+        nominal_params(md::VARIABLES, &self.values)
     }
 
     fn settings(&self) -> ControlSettings {
@@ -77,13 +91,7 @@ impl HlcsController {
 
     fn build(&self, start_time: f64) -> ModelResult<Sim> {
         // The nominal model's fields are the `model.*` variables.
-        let model = Mechanism::new(self.params()).map_err(|e| {
-            ModelError::error(e.to_string().replacen(
-                "parameter `",
-                &format!("parameter `{MODEL_PREFIX}"),
-                1,
-            ))
-        })?;
+        let model = Mechanism::new(self.params()?).map_err(model_param_error)?;
         let duration = self.values.real(vr::DURATION);
         if duration.is_nan() || duration <= 0.0 {
             return Err(ModelError::error(format!(
@@ -98,11 +106,15 @@ impl HlcsController {
             TRAJECTORY_EXTERNAL => None,
             other => {
                 return Err(ModelError::error(format!(
-                    "trajectory = {other} is not a Trajectory item (1 hold, 2 line, 3 circle, 4 external)"
+                    "trajectory = {other} is not a Trajectory item ({TRAJECTORY_ITEMS})"
                 )));
             }
         }
-        .map(|kind| Trajectory { kind, duration, home_height });
+        .map(|kind| Trajectory {
+            kind,
+            duration,
+            home_height,
+        });
         Ok(Sim {
             law: Hlcs::new(model, self.settings()),
             trajectory,
@@ -278,3 +290,36 @@ impl Model for HlcsController {
 }
 
 fmi2::export_fmu!(HlcsController);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `model.*` parameter that is no mechanism field (here `model.gravity` renamed) is
+    /// an error naming the variable; an invalid value is named by its variable too.
+    #[test]
+    fn nominal_model_errors_name_the_variable() {
+        let mut values = Values::for_variables(md::START, md::VARIABLES);
+        let mut renamed: Vec<VarSpec> = md::VARIABLES.to_vec();
+        let gravity = renamed
+            .iter_mut()
+            .find(|v| v.value_reference == vr::MODEL_GRAVITY)
+            .unwrap();
+        gravity.name = "model.gravitation";
+        let e = nominal_params(&renamed, &values).unwrap_err();
+        assert!(
+            e.message
+                .starts_with("parameter `model.gravitation` is not a mechanism parameter"),
+            "{}",
+            e.message
+        );
+
+        values.set_real(vr::MODEL_ROD_COM, -1.0);
+        let p = nominal_params(md::VARIABLES, &values).unwrap();
+        let e = Mechanism::new(p).map_err(model_param_error).unwrap_err();
+        assert_eq!(
+            e.message,
+            "parameter `model.rod_com` = -1 must not be negative"
+        );
+    }
+}

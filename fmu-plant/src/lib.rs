@@ -11,7 +11,7 @@
 use ckcm::nalgebra::Vector6;
 use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State, Workspace};
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarType};
+use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -22,11 +22,43 @@ pub mod md {
     #![allow(clippy::approx_constant)]
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
+use md::enums::{INTEGRATOR_DORMAND_PRINCE, INTEGRATOR_ITEMS, INTEGRATOR_RK4};
 use md::vr;
 
-/// Enumeration items of the `Integrator` type.
-const INTEGRATOR_RK4: i32 = 1;
-const INTEGRATOR_DORMAND_PRINCE: i32 = 2;
+/// The Real parameters the plant reads itself (initial pose, integrator tolerances,
+/// workspace, sensor noise); every other Real parameter is a mechanism parameter.
+const OWN_PARAMETERS: [u32; 12] = [
+    vr::INITIAL_POSE_1,
+    vr::INITIAL_POSE_2,
+    vr::INITIAL_POSE_3,
+    vr::INITIAL_POSE_4,
+    vr::INITIAL_POSE_5,
+    vr::INITIAL_POSE_6,
+    vr::RELATIVE_TOLERANCE,
+    vr::ABSOLUTE_TOLERANCE,
+    vr::LENGTH_MIN,
+    vr::LENGTH_MAX,
+    vr::LENGTH_NOISE_SIGMA,
+    vr::VELOCITY_NOISE_SIGMA,
+];
+
+/// Mechanism parameters from the Real parameters among `variables` (names as in
+/// `ckcm::Params::set_field`). One that is neither among [`OWN_PARAMETERS`] nor a mechanism
+/// field is an error naming it: a parameter renamed in the XML alone must not keep its
+/// default.
+fn mechanism_params(variables: &[VarSpec], values: &Values) -> ModelResult<Params> {
+    let mut p = Params::default();
+    for v in variables {
+        if v.causality == Causality::Parameter
+            && v.var_type == VarType::Real
+            && !OWN_PARAMETERS.contains(&v.value_reference)
+        {
+            p.set_field(v.name, values.real(v.value_reference))
+                .map_err(|e| ModelError::error(e.to_string()))?;
+        }
+    }
+    Ok(p)
+}
 
 /// The plant: variable values plus, once initialised, the simulated mechanism.
 #[derive(Debug, Clone)]
@@ -100,15 +132,8 @@ impl Sim {
 }
 
 impl CkcmPlant {
-    /// Mechanism parameters from the parameter variables (names as in `ckcm::Params::set_field`).
-    fn params(&self) -> Params {
-        let mut p = Params::default();
-        for v in md::VARIABLES {
-            if v.causality == Causality::Parameter && v.var_type == VarType::Real {
-                p.set_field(v.name, self.values.real(v.value_reference));
-            }
-        }
-        p
+    fn params(&self) -> ModelResult<Params> {
+        mechanism_params(md::VARIABLES, &self.values)
     }
 
     fn integrator(&self) -> ModelResult<Integrator> {
@@ -139,7 +164,7 @@ impl CkcmPlant {
                 }))
             }
             other => Err(ModelError::error(format!(
-                "integrator = {other} is not an Integrator item (1 rk4, 2 dormand_prince)"
+                "integrator = {other} is not an Integrator item ({INTEGRATOR_ITEMS})"
             ))),
         }
     }
@@ -169,7 +194,7 @@ impl CkcmPlant {
 
     fn build(&self) -> ModelResult<Sim> {
         let mechanism =
-            Mechanism::new(self.params()).map_err(|e| ModelError::error(e.to_string()))?;
+            Mechanism::new(self.params()?).map_err(|e| ModelError::error(e.to_string()))?;
         let workspace = Workspace {
             length_min: self.values.real(vr::LENGTH_MIN),
             length_max: self.values.real(vr::LENGTH_MAX),
@@ -343,3 +368,35 @@ impl Model for CkcmPlant {
 }
 
 fmi2::export_fmu!(CkcmPlant);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A parameter of the XML that is no mechanism field and not read by the plant itself
+    /// (here `rod_mass` renamed) stops initialization with a message naming it.
+    #[test]
+    fn an_unknown_real_parameter_is_an_error_naming_it() {
+        let values = Values::for_variables(md::START, md::VARIABLES);
+        let mut renamed: Vec<VarSpec> = md::VARIABLES.to_vec();
+        let rod = renamed
+            .iter_mut()
+            .find(|v| v.value_reference == vr::ROD_MASS)
+            .unwrap();
+        rod.name = "rod_mass_kg";
+        let e = mechanism_params(&renamed, &values).unwrap_err();
+        assert_eq!(e.status, fmi2::Status::Error);
+        assert!(
+            e.message
+                .starts_with("parameter `rod_mass_kg` is not a mechanism parameter"),
+            "{}",
+            e.message
+        );
+        let p = mechanism_params(md::VARIABLES, &values).unwrap();
+        assert_eq!(
+            p,
+            Params::default(),
+            "the XML's start values are the defaults"
+        );
+    }
+}

@@ -5,10 +5,20 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{built_fmu, orchestrator};
+use common::{built_fmu, orchestrator, repackage};
 
 /// The paper's circle under HLCS, with an optional `[memory.update]` table body.
 fn circle(dir: &Path, update: Option<&str>) -> PathBuf {
+    circle_with(
+        dir,
+        &built_fmu("HlcsController"),
+        &built_fmu("CkcmPlant"),
+        update,
+    )
+}
+
+/// [`circle`] with the given controller and plant FMUs.
+fn circle_with(dir: &Path, controller: &Path, plant: &Path, update: Option<&str>) -> PathBuf {
     let mut text = format!(
         r#"step_size = 0.001
 stop_time = 5.0
@@ -41,8 +51,7 @@ to = "plant.force"
 from = "controller.memory_next"
 to = "controller.memory"
 "#,
-        built_fmu("HlcsController"),
-        built_fmu("CkcmPlant"),
+        controller, plant,
     );
     if let Some(u) = update {
         text.push_str("[memory.update]\n");
@@ -161,4 +170,52 @@ fn bad_settings_are_named_and_nothing_is_written() {
         assert!(stderr.contains(expected), "{extra:?}: {stderr}");
         assert!(!out.exists(), "{extra:?} wrote {}", out.display());
     }
+}
+
+/// A copy of the built FMU `name` whose model description has `from` renamed to `to`.
+fn renamed(dir: &Path, name: &str, from: &str, to: &str) -> PathBuf {
+    let out = dir.join(format!("{name}.fmu"));
+    repackage(&built_fmu(name), &out, |entry, bytes| {
+        if entry != "modelDescription.xml" {
+            return Some(bytes);
+        }
+        let xml = String::from_utf8(bytes).unwrap();
+        let edited = xml.replace(&format!("name=\"{from}\""), &format!("name=\"{to}\""));
+        assert_ne!(edited, xml, "{from} is not in {name}'s model description");
+        Some(edited.into_bytes())
+    });
+    out
+}
+
+#[test]
+fn a_parameter_renamed_in_the_xml_is_an_error_not_a_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let plant = renamed(dir.path(), "CkcmPlant", "rod_mass", "rod_mass_kg");
+    let scenario = circle_with(dir.path(), &built_fmu("HlcsController"), &plant, None);
+    let o = analyze(&scenario, &out, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "a plant without rod_mass was analysed");
+    assert!(
+        stderr.contains("FMU \"plant\"") && stderr.contains("has no parameter rod_mass"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+
+    let controller = renamed(
+        dir.path(),
+        "HlcsController",
+        "model.gravity",
+        "model.gravitation",
+    );
+    let scenario = circle_with(dir.path(), &controller, &built_fmu("CkcmPlant"), None);
+    let o = analyze(&scenario, &out, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "model.gravitation was ignored");
+    assert!(
+        stderr.contains("FMU \"controller\"")
+            && stderr.contains("parameter `model.gravitation` is not a mechanism parameter"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
 }

@@ -21,6 +21,13 @@ fn vr(f: &Fmu, name: &str) -> u32 {
         .value_reference
 }
 
+/// The value of the `Trajectory` item `name`, from the model description.
+fn item(f: &Fmu, name: &str) -> i32 {
+    f.model_description()
+        .enumeration_item("trajectory", name)
+        .unwrap_or_else(|| panic!("no Trajectory item {name}"))
+}
+
 fn vrs(f: &Fmu, base: &str) -> Vec<u32> {
     (1..=6).map(|i| vr(f, &format!("{base}[{i}]"))).collect()
 }
@@ -89,7 +96,8 @@ fn controller_law_mid_circle_term_by_term() {
     ] {
         c.set_real(&[vr(&ctl, name)], &[value]).unwrap();
     }
-    c.set_integer(&[vr(&ctl, "trajectory")], &[3]).unwrap(); // circle
+    c.set_integer(&[vr(&ctl, "trajectory")], &[item(&ctl, "circle")])
+        .unwrap();
     c.set_boolean(&[vr(&ctl, "learning")], &[true]).unwrap();
     c.set_boolean(&[vr(&ctl, "feedforward")], &[true]).unwrap();
     initialise(&mut c);
@@ -184,7 +192,8 @@ fn controller_law_mid_circle_term_by_term() {
 fn controller_feedforward_at_home_is_the_rodless_static_force() {
     let ctl = open("HlcsController");
     let mut c = ctl.instantiate("hold", false).unwrap();
-    c.set_integer(&[vr(&ctl, "trajectory")], &[1]).unwrap(); // hold
+    c.set_integer(&[vr(&ctl, "trajectory")], &[item(&ctl, "hold")])
+        .unwrap();
     initialise(&mut c);
     let model = Mechanism::new(Params::nominal()).unwrap();
     let l_home = model.inverse_kinematics(&model.home()).length;

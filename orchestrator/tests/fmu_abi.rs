@@ -84,12 +84,15 @@ fn two_plant_instances_are_independent() {
 
 #[test]
 fn serialized_state_continues_bit_identically_in_a_fresh_instance() {
-    for (name, integrator) in [("CkcmPlant.fmu", 1), ("CkcmPlant.fmu", 2)] {
-        let plant = fmu(name);
+    for integrator in ["rk4", "dormand_prince"] {
+        let plant = fmu("CkcmPlant.fmu");
         let (force, pose) = (vrs(&plant, "force"), vrs(&plant, "pose"));
+        let item = plant
+            .model_description()
+            .enumeration_item("integrator", integrator)
+            .unwrap_or_else(|| panic!("no Integrator item {integrator}"));
         let mut a = plant.instantiate("a", false).unwrap();
-        a.set_integer(&[vr(&plant, "integrator")], &[integrator])
-            .unwrap();
+        a.set_integer(&[vr(&plant, "integrator")], &[item]).unwrap();
         start(&mut a, &[]);
         heave(&mut a, &force, &pose, 30.0, 300, 0);
         let state = a.get_fmu_state().unwrap();
@@ -224,9 +227,10 @@ fn log_categories_match_the_model_descriptions() {
             .iter()
             .map(|c| c.name.as_str())
             .collect();
+        // The names the export glue passes to the logger.
         let glue: Vec<&str> = fmi2::export::LOG_CATEGORIES
             .iter()
-            .map(|(n, _)| *n)
+            .map(|n| n.to_str().unwrap())
             .collect();
         assert_eq!(declared, glue, "{name}");
     }

@@ -56,13 +56,18 @@ fn real_outputs(f: &Fmu) -> Vec<u32> {
 fn seeds(f: &Fmu, model: &str) -> Vec<Vec<u8>> {
     let mut out = Vec::new();
     let md = f.model_description();
-    let integrator = md.variable_by_name("integrator").map(|v| v.value_reference);
+    let integrator = md.variable_by_name("integrator").map(|v| {
+        let dormand_prince = md
+            .enumeration_item("integrator", "dormand_prince")
+            .expect("Integrator item dormand_prince");
+        (v.value_reference, dormand_prince)
+    });
     for variant in 0..3 {
         let mut inst = f.instantiate("seed", true).unwrap();
         let s = inst.get_fmu_state().unwrap();
         out.push(inst.serialize_fmu_state(&s).unwrap());
-        if let (Some(vr), 2) = (integrator, variant) {
-            inst.set_integer(&[vr], &[2]).unwrap();
+        if let (Some((vr, dormand_prince)), 2) = (integrator, variant) {
+            inst.set_integer(&[vr], &[dormand_prince]).unwrap();
         }
         inst.setup_experiment(None, 0.0, None).unwrap();
         inst.enter_initialization_mode().unwrap();

@@ -19,22 +19,11 @@ from master import default_fmu_dir  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 
-#: What the packaged FMUs are built from (as `orchestrator/tests/common/mod.rs` lists them).
+#: What the packaged FMUs are built from, as `tests/fmu-sources.txt` lists them.
 FMU_SOURCES = [
-    "Cargo.lock",
-    "ckcm/Cargo.toml",
-    "ckcm/src",
-    "fmi2/Cargo.toml",
-    "fmi2/build.rs",
-    "fmi2/src",
-    "fmu-plant/Cargo.toml",
-    "fmu-plant/build.rs",
-    "fmu-plant/src",
-    "fmu-controller/Cargo.toml",
-    "fmu-controller/build.rs",
-    "fmu-controller/src",
-    "modelDescription",
-    "xtask/src",
+    line.strip()
+    for line in (REPO / "tests" / "fmu-sources.txt").read_text().splitlines()
+    if line.strip() and not line.lstrip().startswith("#")
 ]
 #: What the orchestrator binary is built from.
 ORCHESTRATOR_SOURCES = [

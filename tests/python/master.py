@@ -28,14 +28,12 @@ from pathlib import Path
 
 import numpy as np
 from fmpy import extract, read_model_description
+from fmpy.model_description import ModelDescription
 from fmpy.fmi2 import FMU2Slave
 from scipy import signal
 
 #: Communication step (s): the controller's sample period and DefaultExperiment stepSize.
 STEP_SIZE = 1e-3
-
-#: Values of the controller's `Trajectory` enumeration (modelDescription/HlcsController.xml).
-TRAJECTORY = {"hold": 1, "line": 2, "circle": 3}
 
 #: The paper's durations (s) of each trajectory.
 DURATION = {"hold": 1.0, "line": 15.0, "circle": 5.0}
@@ -49,6 +47,23 @@ LEGS = 6
 def legs(name: str) -> list[str]:
     """The six scalar names of an array variable: `force` -> `force[1]` ... `force[6]`."""
     return [f"{name}[{i}]" for i in range(1, LEGS + 1)]
+
+
+def enumeration_value(md: ModelDescription, variable: str, item: str) -> int:
+    """The value of `item` in the enumeration type of `variable`, read from the model
+    description, so renumbering an item in the XML needs no edit here."""
+    var = next((v for v in md.modelVariables if v.name == variable), None)
+    if var is None:
+        raise KeyError(f"{md.modelName} has no variable {variable!r}")
+    declared = var.declaredType
+    if var.type != "Enumeration" or declared is None:
+        raise KeyError(f"{md.modelName}: {variable!r} is not an enumeration variable")
+    values = {i.name: int(i.value) for i in declared.items}
+    if item not in values:
+        raise KeyError(
+            f"{md.modelName}: {item!r} is not an item of {declared.name} (items: {values})"
+        )
+    return values[item]
 
 
 def default_fmu_dir() -> Path:
@@ -117,6 +132,7 @@ class Slave:
             )
         self.path = fmu_path
         md = read_model_description(str(fmu_path))
+        self.md = md
         self._vr = {v.name: v.valueReference for v in md.modelVariables}
         self._unzip_dir = extract(str(fmu_path))
         self.fmu = FMU2Slave(
@@ -139,15 +155,21 @@ class Slave:
         reals: dict[str, float] | None = None,
         integers: dict[str, int] | None = None,
         booleans: dict[str, bool] | None = None,
+        enumerations: dict[str, str] | None = None,
     ) -> None:
         """Brings the instance to a fresh initial state, ready for `doStep(start_time, h)`.
 
         Every trial must start from the same state (the ILC repeatability assumption), so
         from the second call on the instance is reset first. fmi2Reset restores the start
-        values, so the parameters are set again every time.
+        values, so the parameters are set again every time. `enumerations` maps a variable
+        to an item name, whose value comes from the model description.
         """
         if self._initialized_once:
             self.fmu.reset()
+        if enumerations:
+            integers = dict(integers or {})
+            for variable, item in enumerations.items():
+                integers[variable] = enumeration_value(self.md, variable, item)
         for values, setter in (
             (reals, self.fmu.setReal),
             (integers, self.fmu.setInteger),
@@ -208,7 +230,7 @@ class HlcsMaster:
         self.steps = round(self.duration / step_size)
         self.controller_parameters = {
             "reals": {"duration": self.duration, "psi": psi},
-            "integers": {"trajectory": TRAJECTORY[trajectory]},
+            "enumerations": {"trajectory": trajectory},
             "booleans": {"learning": learning},
         }
         self.controller = Slave(fmu_dir / "HlcsController.fmu", "controller")

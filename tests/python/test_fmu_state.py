@@ -42,6 +42,8 @@ class Case:
     drive: Callable[[float], list[float]]
     reals: dict[str, float] = field(default_factory=dict)
     integers: dict[str, int] = field(default_factory=dict)
+    #: Enumeration variables set by item name (values from the model description).
+    enumerations: dict[str, str] = field(default_factory=dict)
 
 
 CASES = {
@@ -58,7 +60,7 @@ CASES = {
         outputs=legs("force") + legs("memory_next") + legs("error"),
         drive=controller_inputs,
         reals={"duration": 5.0},
-        integers={"trajectory": 3},
+        enumerations={"trajectory": "circle"},
     ),
 }
 
@@ -81,7 +83,13 @@ def test_get_set_and_serialized_state_replay_identically(fmu_dir: Path, name: st
     case = CASES[name]
     first = Slave(fmu_dir / case.fmu, f"{name}-first")
     try:
-        first.start(0.0, N_END * H, reals=case.reals, integers=case.integers)
+        first.start(
+            0.0,
+            N_END * H,
+            reals=case.reals,
+            integers=case.integers,
+            enumerations=case.enumerations,
+        )
         run(first, case, 0, N_SAVE)
         state = first.fmu.getFMUstate()
         reference = run(first, case, N_SAVE, N_END)

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fmpy import simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 
-from master import legs
+from master import enumeration_value, legs
 
 #: Static force per leg that holds the plant at home (docs/model.md §3).
 HOLD_FORCE = 28.5315
@@ -80,7 +80,9 @@ def test_controller_alone_matches_hand_computed_pid_and_feedforward(
         output_interval=H,
         stop_time=2 * H,
         start_values={
-            "trajectory": 2,
+            "trajectory": enumeration_value(
+                read_model_description(str(controller_fmu)), "trajectory", "line"
+            ),
             "length[1]": HOME_LENGTH + dl,
             "velocity[2]": v,
             "memory[3]": mem,

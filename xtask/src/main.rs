@@ -1,8 +1,10 @@
 //! Project automation, so a fresh machine needs only `cargo`:
 //!
-//! - `cargo xtask fmu`: build the two FMU binaries in release mode, for Linux and (cross,
-//!   with mingw-w64) for win64, and package `target/fmu/CkcmPlant.fmu` and
-//!   `target/fmu/HlcsController.fmu`. Installs the Rust target and mingw-w64 if missing.
+//! - `cargo xtask fmu`: build every FMU crate of the workspace (each member with a
+//!   `[package.metadata.fmu]` table: `CkcmPlant`, `HlcsController` and the test fixture
+//!   `ForeignOscillator`) in release mode, for Linux and (cross, with mingw-w64) for win64,
+//!   and package `target/fmu/<modelIdentifier>.fmu`. Installs the Rust target and
+//!   mingw-w64 if missing.
 //! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
 //! - `cargo xtask test`: check formatting and clippy, package the FMUs, cross-build
@@ -20,12 +22,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
-
-/// The two FMUs: (cargo package, model identifier).
-pub const FMUS: [(&str, &str); 2] = [
-    ("fmu-plant", "CkcmPlant"),
-    ("fmu-controller", "HlcsController"),
-];
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -8,45 +8,55 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{FMUS, cargo, docs, run, target_dir, win64};
+use crate::{cargo, docs, run, target_dir, win64};
 
-/// Builds both FMU crates in release mode, for Linux and for win64, and writes
-/// `<target dir>/fmu/<id>.fmu`, from the libraries of the same target directory
-/// (`$CARGO_TARGET_DIR` honoured).
+/// Builds every FMU crate of the workspace (the members with a `[package.metadata.fmu]`
+/// table, found by `fmu_build::workspace_fmus`) in release mode, for Linux and for win64,
+/// and writes `<target dir>/fmu/<modelIdentifier>.fmu`, from the libraries of the same
+/// target directory (`$CARGO_TARGET_DIR` honoured).
 pub fn build_fmus(root: &Path) -> Result<()> {
+    let fmus = fmu_build::workspace_fmus(root)?;
+    if fmus.is_empty() {
+        bail!(
+            "no workspace member of {} has a [package.metadata.fmu] table",
+            root.display()
+        );
+    }
+    let packages: Vec<&str> = fmus.iter().map(|f| f.package.as_str()).collect();
     win64::ensure_cross_toolchain()?;
     let target = target_dir(root);
     let mut cmd = Command::new(cargo());
     cmd.current_dir(root)
         .env("CARGO_TARGET_DIR", &target)
         .args(["build", "--release", "--quiet"]);
-    for (package, _) in FMUS {
+    for package in &packages {
         cmd.args(["-p", package]);
     }
     run(&mut cmd)?;
-    win64::cargo_build(root, &FMUS.map(|(package, _)| package))?;
+    win64::cargo_build(root, &packages)?;
     let out_dir = target.join("fmu");
     fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
-    for (package, id) in FMUS {
-        let lib = target
-            .join("release")
-            .join(format!("lib{}.so", package_lib_name(package)));
-        let dll = win64::release_dir(&target).join(format!("{}.dll", package_lib_name(package)));
-        let xml = root.join("modelDescription").join(format!("{id}.xml"));
-        let fmu = out_dir.join(format!("{id}.fmu"));
-        package_fmu(&xml, &lib, &dll, &fmu)?;
-        println!("packaged {}", fmu.display());
+    for fmu in &fmus {
+        let md = fmu.load_model_description()?;
+        let id = md.model_identifier().with_context(|| {
+            format!(
+                "{} has no CoSimulation modelIdentifier",
+                fmu.model_description.display()
+            )
+        })?;
+        // This platform's naming (lib*.so, *.dylib, *.dll) from the standard library.
+        let lib = target.join("release").join(format!(
+            "{}{}{}",
+            std::env::consts::DLL_PREFIX,
+            fmu.lib_name,
+            std::env::consts::DLL_SUFFIX
+        ));
+        let dll = win64::release_dir(&target).join(win64::dll_file_name(&fmu.lib_name));
+        let out = out_dir.join(format!("{id}.fmu"));
+        package_fmu(&fmu.model_description, &lib, &dll, &out)?;
+        println!("packaged {}", out.display());
     }
     Ok(())
-}
-
-/// The `[lib] name` of each FMU crate.
-fn package_lib_name(package: &str) -> &'static str {
-    match package {
-        "fmu-plant" => "ckcm_plant",
-        "fmu-controller" => "hlcs_controller",
-        other => panic!("unknown FMU package {other}"),
-    }
 }
 
 /// Writes one `.fmu` atomically (temporary file, then rename): `lib` is this platform's

@@ -25,6 +25,11 @@ pub fn release_dir(target: &Path) -> PathBuf {
     target.join(TARGET).join("release")
 }
 
+/// The file name of the DLL of the library crate `lib_name` on this target (no prefix).
+pub fn dll_file_name(lib_name: &str) -> String {
+    format!("{lib_name}.dll")
+}
+
 /// Installs the rustup target and mingw-w64 when missing.
 pub fn ensure_cross_toolchain() -> Result<()> {
     let installed = output(Command::new("rustup").args(["target", "list", "--installed"]))

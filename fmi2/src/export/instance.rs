@@ -9,34 +9,11 @@ use super::model::{Causality, Model, ModelError, VarSpec, VarType, Variability};
 use super::state::{FmiState, Function};
 use crate::types::{Fmi2ComponentEnvironment, Fmi2Status, Fmi2String, Status};
 
-/// Log categories of every FMU built on this glue, as `(name, description)`.
-///
-/// The model descriptions list exactly these in `<LogCategories>`.
-pub const LOG_CATEGORIES: &[(&str, &str)] = &[
-    (
-        "logEvents",
-        "Lifecycle calls: instantiate, setup, initialization, terminate, reset, free",
-    ),
-    (
-        "logStatusWarning",
-        "Messages of calls that return fmi2Warning",
-    ),
-    (
-        "logStatusDiscard",
-        "Messages of calls that return fmi2Discard",
-    ),
-    (
-        "logStatusError",
-        "Messages of calls that return fmi2Error (always passed to the logger)",
-    ),
-    (
-        "logStatusFatal",
-        "Messages of calls that return fmi2Fatal (always passed to the logger)",
-    ),
-];
-
-/// The same names as C strings, indexed like [`LOG_CATEGORIES`].
-const CATEGORY_NAMES: [&CStr; 5] = [
+/// Log categories of every FMU built on this glue, as the logger callback receives them,
+/// indexed by [`category_of`]. Each model description must declare exactly these names in
+/// this order in `<LogCategories>` (with its own descriptions): `fmu-build` refuses to
+/// build an FMU whose XML differs.
+pub const LOG_CATEGORIES: [&CStr; 5] = [
     c"logEvents",
     c"logStatusWarning",
     c"logStatusDiscard",
@@ -97,7 +74,7 @@ impl LogSink {
                 self.env,
                 instance_name.as_ptr(),
                 Fmi2Status::from(status),
-                CATEGORY_NAMES[category_of(status)].as_ptr(),
+                LOG_CATEGORIES[category_of(status)].as_ptr(),
                 c"%s".as_ptr(),
                 message.as_ptr(),
             );
@@ -395,8 +372,11 @@ impl<M: Model> Instance<M> {
         }
         let mut picked = Vec::with_capacity(categories.len());
         for name in categories {
-            let Some(k) = LOG_CATEGORIES.iter().position(|(c, _)| c == name) else {
-                let known: Vec<&str> = LOG_CATEGORIES.iter().map(|(c, _)| *c).collect();
+            let Some(k) = LOG_CATEGORIES
+                .iter()
+                .position(|c| c.to_bytes() == name.as_bytes())
+            else {
+                let known: Vec<_> = LOG_CATEGORIES.iter().map(|c| c.to_string_lossy()).collect();
                 return Err(Failure::error(format!(
                     "unknown log category '{name}'; this FMU declares {}",
                     known.join(", ")
@@ -624,5 +604,35 @@ impl<M: Model> Instance<M> {
         self.glue.first_step.get_or_insert(h);
         self.glue.last_step_status = status;
         Ok(status)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each status's messages go to the category named after it (fmi2Error →
+    /// logStatusError), lifecycle messages (OK, Pending) to logEvents: a reordered table
+    /// would file messages under the wrong name.
+    #[test]
+    fn each_status_is_logged_under_its_own_category() {
+        for status in [
+            Status::Ok,
+            Status::Warning,
+            Status::Discard,
+            Status::Error,
+            Status::Fatal,
+            Status::Pending,
+        ] {
+            let expected = match status {
+                Status::Ok | Status::Pending => "logEvents".to_owned(),
+                other => format!("logStatus{}", other.name().trim_start_matches("fmi2")),
+            };
+            assert_eq!(
+                LOG_CATEGORIES[category_of(status)].to_str(),
+                Ok(expected.as_str()),
+                "{status}"
+            );
+        }
     }
 }

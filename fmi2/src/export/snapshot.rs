@@ -14,7 +14,7 @@
 //! | 16            | n    | model identifier                                             |
 //! | 16+n          | 4    | `g`, `u32`                                                   |
 //! | 20+n          | g    | GUID                                                         |
-//! | 20+n+g        | 4    | FMI state, `u32`: 0 Instantiated, 1 InitializationMode, 2 StepComplete, 3 StepFailed, 4 StepCanceled, 5 Terminated, 6 Error |
+//! | 20+n+g        | 4    | FMI state, `u32`: 0 Instantiated, 1 InitializationMode, 2 StepComplete, 3 StepFailed, 4 StepCanceled, 5 Terminated (6, Fatal, is never saved and is refused) |
 //! | 24+n+g        | 4    | flags, `u32`: bit 0 stop time defined, 1 tolerance defined, 2 first step size known, 3 terminate requested, 4 values dirty |
 //! | 28+n+g        | 4    | status of the last fmi2DoStep, `u32` (0 OK, 1 Warning, 2 Discard) |
 //! | 32+n+g        | 40   | `f64`s: start time, stop time, tolerance, FMU time, first step size (0 when undefined) |

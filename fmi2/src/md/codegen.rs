@@ -10,11 +10,14 @@
 
 use std::fmt::Write;
 
-use super::{Causality, ModelDescription, VarType, Variability};
+use super::{Causality, ModelDescription, SimpleTypeKind, VarType, Variability};
 
 /// Emits `GUID`, `MODEL_IDENTIFIER`, `CAN_HANDLE_VARIABLE_STEP`, a `vr` module with one
-/// constant per variable (`force[1]` → `FORCE_1`), `VARIABLES: &[VarSpec]` and
-/// `START: &[(vr, VarType, f64)]` for every non-String variable with a start value.
+/// constant per variable (`force[1]` → `FORCE_1`), an `enums` module with one constant per
+/// enumeration item (type `Integrator`, item `rk4` → `INTEGRATOR_RK4`) and, per type, the
+/// items as text for error messages (`INTEGRATOR_ITEMS` = `"1 rk4, 2 dormand_prince"`),
+/// `VARIABLES: &[VarSpec]` and `START: &[(vr, VarType, f64)]` for every non-String
+/// variable with a start value.
 ///
 /// Two names that map to the same constant produce duplicate definitions, so the
 /// including crate fails to compile rather than silently aliasing them.
@@ -58,6 +61,48 @@ pub fn codegen_rust(md: &ModelDescription) -> String {
             "    pub const {}: u32 = {};",
             const_name(&v.name),
             v.value_reference
+        );
+    }
+    let _ = writeln!(out, "}}");
+
+    let _ = writeln!(
+        out,
+        "/// Items of the enumeration types: renumbering an item in the XML changes its constant."
+    );
+    let _ = writeln!(out, "#[allow(dead_code)]");
+    let _ = writeln!(out, "pub mod enums {{");
+    for t in &md.type_definitions {
+        let SimpleTypeKind::Enumeration { items, .. } = &t.kind else {
+            continue;
+        };
+        let prefix = const_name(&t.name);
+        for item in items {
+            let _ = writeln!(
+                out,
+                "    /// Item `{}` of `{}`",
+                item.name.replace('`', "'"),
+                t.name.replace('`', "'")
+            );
+            let _ = writeln!(
+                out,
+                "    pub const {prefix}_{}: i32 = {};",
+                const_name(&item.name),
+                item.value
+            );
+        }
+        let listed: Vec<String> = items
+            .iter()
+            .map(|i| format!("{} {}", i.value, i.name))
+            .collect();
+        let _ = writeln!(
+            out,
+            "    /// The items of `{}` as `value name`, for error messages.",
+            t.name.replace('`', "'")
+        );
+        let _ = writeln!(
+            out,
+            "    pub const {prefix}_ITEMS: &str = {:?};",
+            listed.join(", ")
         );
     }
     let _ = writeln!(out, "}}");
@@ -195,7 +240,7 @@ fn variability_ident(v: Variability) -> &'static str {
 mod tests {
     use super::*;
     use crate::md::{
-        CoSimulation, Initial, ModelStructure, ScalarVariable, VariableKind,
+        CoSimulation, Initial, Item, ModelStructure, ScalarVariable, SimpleType, VariableKind,
         VariableNamingConvention,
     };
 
@@ -262,7 +307,25 @@ mod tests {
             }),
             model_exchange: None,
             unit_definitions: vec![],
-            type_definitions: vec![],
+            type_definitions: vec![SimpleType {
+                name: "Integrator".into(),
+                description: None,
+                kind: SimpleTypeKind::Enumeration {
+                    quantity: None,
+                    items: vec![
+                        Item {
+                            name: "rk4".into(),
+                            value: 3,
+                            description: None,
+                        },
+                        Item {
+                            name: "dormandPrince".into(),
+                            value: -1,
+                            description: None,
+                        },
+                    ],
+                },
+            }],
             log_categories: vec![],
             default_experiment: None,
             model_variables: vec![
@@ -308,6 +371,9 @@ mod tests {
         assert!(src.contains("pub const CAN_HANDLE_VARIABLE_STEP: bool = true;"));
         assert!(src.contains("pub const FORCE_1: u32 = 7;"));
         assert!(src.contains("pub const LEARNING: u32 = 8;"));
+        assert!(src.contains("pub const INTEGRATOR_RK4: i32 = 3;"), "{src}");
+        assert!(src.contains("pub const INTEGRATOR_DORMAND_PRINCE: i32 = -1;"));
+        assert!(src.contains("pub const INTEGRATOR_ITEMS: &str = \"3 rk4, -1 dormandPrince\";"));
         assert!(src.contains(
             "::fmi2::export::VarSpec { name: \"force[1]\", value_reference: 7, var_type: ::fmi2::export::VarType::Real, causality: ::fmi2::export::Causality::Input, variability: ::fmi2::export::Variability::Continuous, min: None, max: Some(2.0) },"
         ));

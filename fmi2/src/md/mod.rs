@@ -558,6 +558,22 @@ impl ModelDescription {
     pub fn simple_type(&self, name: &str) -> Option<&SimpleType> {
         self.type_definitions.iter().find(|t| t.name == name)
     }
+
+    /// The value of the item named `item` in the enumeration type of the variable
+    /// `variable`: masters and tests set enumerations by item name, so renumbering an item
+    /// in the XML needs no edit elsewhere. `None` if either is unknown.
+    pub fn enumeration_item(&self, variable: &str, item: &str) -> Option<i32> {
+        let VariableKind::Enumeration { declared_type, .. } =
+            &self.variable_by_name(variable)?.kind
+        else {
+            return None;
+        };
+        let SimpleTypeKind::Enumeration { items, .. } = &self.simple_type(declared_type)?.kind
+        else {
+            return None;
+        };
+        items.iter().find(|i| i.name == item).map(|i| i.value)
+    }
 }
 
 /// Integer and Enumeration values travel through the same C functions, so they share

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use ckcm::convergence::{Analysis, Problem, analyse, validate};
 use ckcm::learning::{LowPass, UpdateSettings};
-use ckcm::{Gains, Mechanism, Params, Trajectory, TrajectoryKind};
+use ckcm::{Gains, Mechanism, ParamError, Params, Trajectory, TrajectoryKind};
 use fmi2::import::Fmu;
 use fmi2::md::{ModelDescription, VariableKind};
 use orchestrator::output::convergence_plot::{ModeCurves, convergence_factor};
@@ -154,13 +154,32 @@ fn values(md: &ModelDescription, spec: &FmuSpec) -> BTreeMap<String, f64> {
     v
 }
 
-/// Mechanism parameters from FMU variable values (names as `ckcm::Params::set_field`).
-fn params(values: &BTreeMap<String, f64>) -> Params {
+/// The plant's mechanism: every field of `ckcm::Params` from the plant variable of that
+/// name, which must exist (a parameter renamed in the XML is an error, never a default).
+fn plant_params(values: &BTreeMap<String, f64>) -> Result<Params> {
     let mut p = Params::default();
-    for (name, &x) in values {
-        p.set_field(name, x);
+    for field in Params::FIELDS {
+        let x = values
+            .get(field)
+            .with_context(|| format!("has no parameter {field} (a mechanism parameter)"))?;
+        p.set_field(field, *x)?;
     }
-    p
+    Ok(p)
+}
+
+/// The controller's nominal model: `Params::nominal()` with each `model.*` variable set,
+/// as the controller FMU builds it; a `model.*` name that is no mechanism field is an error.
+fn nominal_params(values: &BTreeMap<String, f64>) -> Result<Params> {
+    let mut p = Params::nominal();
+    for (name, &x) in values {
+        if let Some(field) = name.strip_prefix("model.") {
+            p.set_field(field, x).map_err(|e| ParamError {
+                field: name.clone(),
+                ..e
+            })?;
+        }
+    }
+    Ok(p)
 }
 
 /// Finds the FMU whose model is `model` (the analysis models the CKCM FMUs only).
@@ -192,9 +211,11 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
     }
     let plant_values = values(plant_md, plant_spec);
     let ctrl = values(ctrl_md, ctrl_spec);
-    let plant = Mechanism::new(params(&plant_values))
+    let plant = plant_params(&plant_values)
+        .and_then(|p| Ok(Mechanism::new(p)?))
         .with_context(|| format!("{}: FMU {:?}", file.display(), plant_spec.name))?;
-    let nominal = Mechanism::new(params(&ctrl))
+    let nominal = nominal_params(&ctrl)
+        .and_then(|p| Ok(Mechanism::new(p)?))
         .with_context(|| format!("{}: FMU {:?}", file.display(), ctrl_spec.name))?;
     let get = |name: &str| -> Result<f64> {
         ctrl.get(name).copied().with_context(|| {
@@ -224,16 +245,22 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
         gamma: get("gamma")? * scale,
         psi: get("psi")? * scale,
     };
-    let kind = match get("trajectory")? as i32 {
-        1 => TrajectoryKind::Hold,
-        2 => TrajectoryKind::Line,
-        3 => TrajectoryKind::Circle,
-        other => bail!(
-            "{}: FMU {:?} has trajectory = {other}: the analysis needs the controller's own \
-             reference (hold, line or circle), not an external one",
+    // Items by name from the controller's XML, so a renumbered item needs no edit here.
+    let trajectory = get("trajectory")? as i32;
+    let item = |name| ctrl_md.enumeration_item("trajectory", name) == Some(trajectory);
+    let kind = if item("hold") {
+        TrajectoryKind::Hold
+    } else if item("line") {
+        TrajectoryKind::Line
+    } else if item("circle") {
+        TrajectoryKind::Circle
+    } else {
+        bail!(
+            "{}: FMU {:?} has trajectory = {trajectory}: the analysis needs the controller's \
+             own reference (hold, line or circle), not an external one",
             file.display(),
             ctrl_spec.name
-        ),
+        );
     };
     let duration = get("duration")?;
     if !(duration.is_finite() && duration > 0.0) {

@@ -25,24 +25,19 @@ pub fn orchestrator() -> assert_cmd::Command {
     assert_cmd::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
 }
 
-/// What the packaged FMUs are built from (relative to the workspace root): an FMU older than
-/// any of these was packaged from other sources and would test old code.
-pub const FMU_SOURCES: &[&str] = &[
-    "Cargo.lock",
-    "ckcm/Cargo.toml",
-    "ckcm/src",
-    "fmi2/Cargo.toml",
-    "fmi2/build.rs",
-    "fmi2/src",
-    "fmu-plant/Cargo.toml",
-    "fmu-plant/build.rs",
-    "fmu-plant/src",
-    "fmu-controller/Cargo.toml",
-    "fmu-controller/build.rs",
-    "fmu-controller/src",
-    "modelDescription",
-    "xtask/src",
-];
+/// What the packaged FMUs are built from (relative to the workspace root), as
+/// `tests/fmu-sources.txt` lists them: an FMU older than any of these was packaged from
+/// other sources and would test old code.
+pub fn fmu_sources() -> Vec<String> {
+    let path = workspace_root().join("tests/fmu-sources.txt");
+    std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(str::to_owned)
+        .collect()
+}
 
 /// The newest modification time of the files under `paths` (relative to the workspace
 /// root; missing paths are skipped), with the file.
@@ -94,7 +89,9 @@ pub fn built_fmu(name: &str) -> PathBuf {
         "{} is missing: run `cargo xtask fmu` first (or point CKCM_FMU_DIR at the FMUs)",
         path.display()
     );
-    assert_fresh(&path, FMU_SOURCES, "cargo xtask fmu");
+    let sources = fmu_sources();
+    let sources: Vec<&str> = sources.iter().map(String::as_str).collect();
+    assert_fresh(&path, &sources, "cargo xtask fmu");
     path
 }
 
