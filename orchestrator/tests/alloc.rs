@@ -23,12 +23,6 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 /// the true-error metrics ports (reference and noise-free length), with the packaged FMUs;
 /// `update` is the memory channel's update table (empty: the paper's).
 fn scenario_toml(update: &str) -> String {
-    let path = |name: &str| {
-        std::fs::canonicalize(common::built_fmu(name))
-            .unwrap()
-            .display()
-            .to_string()
-    };
     format!(
         r#"
 step_size = 0.001
@@ -50,23 +44,7 @@ path = "{plant}"
 length_noise_sigma = 1e-6
 velocity_noise_sigma = 1e-5
 noise_seed = {{ base = 7, per_trial = 1 }}
-
-[[connection]]
-from = "plant.length"
-to = "controller.length"
-
-[[connection]]
-from = "plant.velocity"
-to = "controller.velocity"
-
-[[connection]]
-from = "controller.force"
-to = "plant.force"
-
-[[memory]]
-from = "controller.memory_next"
-to = "controller.memory"
-{update}
+{closed_loop}{update}
 
 [record]
 variables = ["controller.error", "controller.force", "controller.memory_next", "plant.length", "plant.pose"]
@@ -78,8 +56,9 @@ length = "plant.length_true"
 pose = "plant.pose"
 trajectory = {{ kind = "line", duration = 2.0, home_height = 0.5 }}
 "#,
-        controller = path("HlcsController"),
-        plant = path("CkcmPlant"),
+        controller = common::fmu_path_text("HlcsController"),
+        plant = common::fmu_path_text("CkcmPlant"),
+        closed_loop = common::CLOSED_LOOP,
     )
 }
 

@@ -11,12 +11,6 @@ use orchestrator::scenario::Scenario;
 
 /// A 0.3 s line under HLCS recording the controller's error and the plant's lengths.
 fn scenario_toml() -> String {
-    let path = |name: &str| {
-        std::fs::canonicalize(common::built_fmu(name))
-            .unwrap()
-            .display()
-            .to_string()
-    };
     format!(
         r#"
 step_size = 0.001
@@ -34,29 +28,14 @@ learning = true
 [[fmu]]
 name = "plant"
 path = "{plant}"
-
-[[connection]]
-from = "plant.length"
-to = "controller.length"
-
-[[connection]]
-from = "plant.velocity"
-to = "controller.velocity"
-
-[[connection]]
-from = "controller.force"
-to = "plant.force"
-
-[[memory]]
-from = "controller.memory_next"
-to = "controller.memory"
-
+{closed_loop}
 [record]
 variables = ["controller.error", "plant.length"]
 interval = 1
 "#,
-        controller = path("HlcsController"),
-        plant = path("CkcmPlant"),
+        controller = common::fmu_path_text("HlcsController"),
+        plant = common::fmu_path_text("CkcmPlant"),
+        closed_loop = common::CLOSED_LOOP,
     )
 }
 

@@ -23,12 +23,6 @@ fn scenario_toml(
     controller_params: &str,
     plant_params: &str,
 ) -> String {
-    let path = |name: &str| {
-        std::fs::canonicalize(common::built_fmu(name))
-            .unwrap()
-            .display()
-            .to_string()
-    };
     format!(
         r#"
 step_size = 0.001
@@ -48,23 +42,7 @@ name = "plant"
 path = "{plant}"
 [fmu.parameters]
 {plant_params}
-
-[[connection]]
-from = "plant.length"
-to = "controller.length"
-
-[[connection]]
-from = "plant.velocity"
-to = "controller.velocity"
-
-[[connection]]
-from = "controller.force"
-to = "plant.force"
-
-[[memory]]
-from = "controller.memory_next"
-to = "controller.memory"
-{update}
+{closed_loop}{update}
 
 [record]
 variables = ["controller.memory_next"]
@@ -74,8 +52,9 @@ variables = ["controller.memory_next"]
 reference = "controller.length_ref"
 length = "plant.length_true"
 "#,
-        controller = path("HlcsController"),
-        plant = path("CkcmPlant"),
+        controller = common::fmu_path_text("HlcsController"),
+        plant = common::fmu_path_text("CkcmPlant"),
+        closed_loop = common::CLOSED_LOOP,
     )
 }
 

@@ -12,6 +12,35 @@ use std::time::SystemTime;
 
 use orchestrator::output::{Recording, read_recording_csv};
 
+/// The closed loop of the two CKCM FMUs as scenario text: the plant's lengths and rates to
+/// the controller, its force to the plant, and the iteration memory channel (a
+/// `[memory.update]` table may follow it).
+pub const CLOSED_LOOP: &str = r#"
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+
+[[memory]]
+from = "controller.memory_next"
+to = "controller.memory"
+"#;
+
+/// Absolute path of the packaged FMU `name` (checked fresh), as written in a scenario.
+pub fn fmu_path_text(name: &str) -> String {
+    std::fs::canonicalize(built_fmu(name))
+        .unwrap()
+        .display()
+        .to_string()
+}
+
 /// The workspace root (the orchestrator crate's parent).
 pub fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
