@@ -380,11 +380,13 @@ fn mm3(metres: f64) -> String {
     format!("{v:.digits$}")
 }
 
+/// Index of a case of [`CASES`]; the slugs passed are constants of this module, so a miss
+/// is a programming error, not input to report.
 fn find(kind: TrajectoryKind, slug: &str) -> usize {
     CASES
         .iter()
         .position(|c| c.trajectory == kind && c.slug == slug)
-        .unwrap_or(0)
+        .expect("a case of CASES")
 }
 
 /// The template values of the section: `robust.trials`, `robust.line.table`,
