@@ -4,7 +4,7 @@
 
 use nalgebra::Vector6;
 
-use crate::control::{ControlInput, ControlOutput, Hlcs};
+use crate::control::{ControlInput, ControlOutput, Hlcs, ReferenceTable, ReferenceTerms};
 use crate::dynamics::DynamicsError;
 use crate::integrate::{IntegrationError, Integrator, State};
 use crate::kinematics::Mechanism;
@@ -32,8 +32,37 @@ pub fn run_trial(
     h: f64,
     memory: &[Vector6<f64>],
     memory_next: &mut [Vector6<f64>],
+    observe: impl FnMut(usize, &State, &ControlInput, &ControlOutput),
+) -> Result<State, TrialError> {
+    run_trial_with_table(
+        plant,
+        integrator,
+        controller,
+        trajectory,
+        h,
+        None,
+        memory,
+        memory_next,
+        observe,
+    )
+}
+
+/// [`run_trial`] taking the reference terms from `table` where it has them (made with the
+/// controller's model, `trajectory`, start time 0 and step `h`; any other table is ignored).
+/// The outputs are the same bits as without the table.
+#[allow(clippy::too_many_arguments)]
+pub fn run_trial_with_table(
+    plant: &Mechanism,
+    integrator: &mut Integrator,
+    controller: &mut Hlcs,
+    trajectory: &Trajectory,
+    h: f64,
+    table: Option<&ReferenceTable>,
+    memory: &[Vector6<f64>],
+    memory_next: &mut [Vector6<f64>],
     mut observe: impl FnMut(usize, &State, &ControlInput, &ControlOutput),
 ) -> Result<State, TrialError> {
+    let table = table.filter(|tb| tb.is_for(&controller.model, trajectory, 0.0, h));
     let mut state = State::at_rest(trajectory.sample(0.0).pose);
     controller.reset();
     let steps = memory.len().min(memory_next.len());
@@ -45,10 +74,19 @@ pub fn run_trial(
             velocity: legs.leg_rates(&state.twist),
             memory: memory[n],
         };
-        let reference = trajectory.sample(t);
-        let out = controller
-            .step(&reference, &input, h)
-            .map_err(|source| TrialError::Controller { t, source })?;
+        let out = match table.and_then(|tb| tb.get(t)) {
+            Some(terms) => controller.step_terms(terms, &input, h),
+            None => {
+                let reference = trajectory.sample(t);
+                let terms = ReferenceTerms::new(
+                    &controller.model,
+                    &reference,
+                    controller.settings.feedforward,
+                );
+                controller.step_terms(&terms, &input, h)
+            }
+        }
+        .map_err(|source| TrialError::Controller { t, source })?;
         memory_next[n] = out.memory_next;
         observe(n, &state, &input, &out);
         integrator

@@ -9,7 +9,7 @@ use nalgebra::Vector6;
 
 use crate::dynamics::DynamicsError;
 use crate::kinematics::Mechanism;
-use crate::trajectory::Reference;
+use crate::trajectory::{Reference, Trajectory};
 
 /// Controller gains, all scalar (the same for every leg).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -128,6 +128,115 @@ pub struct ControlOutput {
     pub feedforward: Vector6<f64>,
 }
 
+/// What the law takes from the reference at one sample: the desired leg lengths and rates
+/// and the feedforward τ_a. They depend on the reference and the nominal model only, not on
+/// the measurements, so every trial can reuse them from a [`ReferenceTable`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceTerms {
+    /// Desired leg lengths l_d, m.
+    pub length_ref: Vector6<f64>,
+    /// Desired leg rates l̇_d = J ẋ_d, m/s.
+    pub velocity_ref: Vector6<f64>,
+    /// τ_a = J⁻ᵀ (M ẍ_d + b) (eq. 7) with the nominal model, N; zero when not asked for, or
+    /// why it could not be computed.
+    pub feedforward: Result<Vector6<f64>, DynamicsError>,
+}
+
+impl ReferenceTerms {
+    /// The terms at `reference` under `model`; τ_a only `with_feedforward` (else zero).
+    pub fn new(model: &Mechanism, reference: &Reference, with_feedforward: bool) -> Self {
+        let terms = model.terms(&reference.pose, &reference.twist);
+        let feedforward = if with_feedforward {
+            let wrench = terms.mass * reference.accel + terms.bias;
+            terms
+                .jacobian
+                .transpose()
+                .lu()
+                .solve(&wrench)
+                .ok_or(DynamicsError::SingularJacobian)
+        } else {
+            Ok(Vector6::zeros())
+        };
+        Self {
+            length_ref: terms.legs.length,
+            velocity_ref: terms.leg_rates,
+            feedforward,
+        }
+    }
+}
+
+/// [`ReferenceTerms`] of a trajectory at every sample t_n − t_0 of a trial, computed once per
+/// nominal model, trajectory, start time and step, and looked up by the exact time
+/// (docs/model.md §4). Looking up a time that was not tabulated (another step size, a time
+/// off the grid t_0 + n·h, past the trajectory's end) yields `None` and the caller computes
+/// the terms itself, so the law's outputs are the same bits with or without the table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceTable {
+    model: Mechanism,
+    trajectory: Trajectory,
+    start_time: f64,
+    h: f64,
+    /// t_n − t_0 of each entry, as a master computes it: (t_0 + n·h) − t_0, s.
+    times: Vec<f64>,
+    terms: Vec<ReferenceTerms>,
+}
+
+impl ReferenceTable {
+    /// Tabulates n = 0 ..= ⌈T/h⌉ (the whole trajectory of duration T) with τ_a.
+    pub fn new(model: &Mechanism, trajectory: &Trajectory, start_time: f64, h: f64) -> Self {
+        let samples = if h > 0.0 && h.is_finite() && trajectory.duration.is_finite() {
+            (trajectory.duration / h).ceil() as usize + 1
+        } else {
+            0
+        };
+        let times: Vec<f64> = (0..samples)
+            .map(|n| (start_time + n as f64 * h) - start_time)
+            .collect();
+        let terms = times
+            .iter()
+            .map(|&t| ReferenceTerms::new(model, &trajectory.sample(t), true))
+            .collect();
+        Self {
+            model: *model,
+            trajectory: *trajectory,
+            start_time,
+            h,
+            times,
+            terms,
+        }
+    }
+
+    /// Whether this table was made for these arguments of [`ReferenceTable::new`].
+    pub fn is_for(
+        &self,
+        model: &Mechanism,
+        trajectory: &Trajectory,
+        start_time: f64,
+        h: f64,
+    ) -> bool {
+        self.h.to_bits() == h.to_bits()
+            && self.start_time.to_bits() == start_time.to_bits()
+            && self.trajectory == *trajectory
+            && self.model == *model
+    }
+
+    /// Step size the table was made for, s.
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// The terms at `t` s after the start, if `t` is bit for bit a tabulated time.
+    #[inline]
+    pub fn get(&self, t: f64) -> Option<&ReferenceTerms> {
+        let n = (t / self.h).round();
+        if !(n >= 0.0 && n < self.times.len() as f64) {
+            return None;
+        }
+        let n = n as usize;
+        (self.times[n].to_bits() == t.to_bits()).then(|| &self.terms[n])
+    }
+}
+
 /// The HLCS with its integral state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hlcs {
@@ -157,21 +266,26 @@ impl Hlcs {
         input: &ControlInput,
         h: f64,
     ) -> Result<(ControlOutput, Vector6<f64>), DynamicsError> {
+        let terms = ReferenceTerms::new(&self.model, reference, self.settings.feedforward);
+        self.evaluate_terms(&terms, input, h)
+    }
+
+    /// [`Hlcs::evaluate`] from the reference's terms (computed with this controller's model,
+    /// e.g. looked up in a [`ReferenceTable`]).
+    #[inline]
+    pub fn evaluate_terms(
+        &self,
+        terms: &ReferenceTerms,
+        input: &ControlInput,
+        h: f64,
+    ) -> Result<(ControlOutput, Vector6<f64>), DynamicsError> {
         let g = &self.settings.gains;
-        let terms = self.model.terms(&reference.pose, &reference.twist);
-        let length_ref = terms.legs.length;
-        let velocity_ref = terms.leg_rates;
+        let length_ref = terms.length_ref;
         let e = length_ref - input.length;
-        let ed = velocity_ref - input.velocity;
+        let ed = terms.velocity_ref - input.velocity;
         let integral = self.integral + e * h;
         let feedforward = if self.settings.feedforward {
-            let wrench = terms.mass * reference.accel + terms.bias;
-            terms
-                .jacobian
-                .transpose()
-                .lu()
-                .solve(&wrench)
-                .ok_or(DynamicsError::SingularJacobian)?
+            terms.feedforward?
         } else {
             Vector6::zeros()
         };
@@ -200,6 +314,18 @@ impl Hlcs {
         h: f64,
     ) -> Result<ControlOutput, DynamicsError> {
         let (out, integral) = self.evaluate(reference, input, h)?;
+        self.integral = integral;
+        Ok(out)
+    }
+
+    /// [`Hlcs::step`] from the reference's terms.
+    pub fn step_terms(
+        &mut self,
+        terms: &ReferenceTerms,
+        input: &ControlInput,
+        h: f64,
+    ) -> Result<ControlOutput, DynamicsError> {
+        let (out, integral) = self.evaluate_terms(terms, input, h)?;
         self.integral = integral;
         Ok(out)
     }

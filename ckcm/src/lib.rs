@@ -20,7 +20,10 @@ pub mod rotation;
 pub mod trajectory;
 pub mod workspace;
 
-pub use control::{ControlInput, ControlOutput, ControlSettings, Gains, Hlcs, LearningLaw};
+pub use control::{
+    ControlInput, ControlOutput, ControlSettings, Gains, Hlcs, LearningLaw, ReferenceTable,
+    ReferenceTerms,
+};
 pub use dynamics::{DynamicsError, DynamicsTerms, JointSpaceDynamics};
 pub use integrate::{DormandPrince, IntegrationError, Integrator, Rk4, State};
 pub use kinematics::{FkError, FkOptions, LEGS, LegGeometry, Mechanism, Pose};
