@@ -6,7 +6,7 @@
 //! Newton–Euler at zero acceleration, so the two are derived independently and the tests
 //! can check one against the other.
 
-use nalgebra::{Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use crate::kinematics::{LEGS, LegGeometry, Mechanism, Pose, skew};
 
@@ -80,6 +80,24 @@ impl Mechanism {
     /// each leg adds c G_iᵀG_i + (a − c) j_i j_iᵀ, with
     /// G_iᵀG_i = [[I, −[r]×], [[r]×, |r|² I − r rᵀ]]: rank-one updates instead of 3×3 products.
     pub fn mass_matrix(&self, legs: &LegGeometry) -> Matrix6<f64> {
+        self.mass_matrix_from(legs, &legs.jacobian(), &self.inertia_world(legs))
+    }
+
+    /// The platform inertia in {B}, R I_A Rᵀ: once per evaluation, shared by M and b.
+    #[inline]
+    fn inertia_world(&self, legs: &LegGeometry) -> Matrix3<f64> {
+        let rot = &legs.rot_world;
+        rot * self.inertia_platform * rot.transpose()
+    }
+
+    /// [`Mechanism::mass_matrix`] from the leg Jacobian J (its rows j_i) and R I_A Rᵀ,
+    /// which the caller has computed anyway.
+    fn mass_matrix_from(
+        &self,
+        legs: &LegGeometry,
+        jacobian: &Matrix6<f64>,
+        inertia_world: &Matrix3<f64>,
+    ) -> Matrix6<f64> {
         // Upper triangle on plain arrays (M is symmetric), mirrored at the end: half the
         // products of full 6×6 rank-one updates and no 3×3 temporaries.
         let mut u = [[0.0_f64; 6]; 6];
@@ -88,9 +106,7 @@ impl Mechanism {
         for i in 0..LEGS {
             let (a, c) = self.leg_masses(legs.length[i]);
             let r = legs.r_world[i];
-            let n = legs.n_world[i];
-            let mr = r.cross(&n);
-            let j = [n.x, n.y, n.z, mr.x, mr.y, mr.z];
+            let j: [f64; 6] = std::array::from_fn(|k| jacobian[(i, k)]);
             let w = a - c;
             for p in 0..6 {
                 let wj = w * j[p];
@@ -108,8 +124,6 @@ impl Mechanism {
                 }
             }
         }
-        let rot = &legs.rot_world;
-        let inertia_world = rot * self.inertia_platform * rot.transpose();
         let mut m = Matrix6::from_fn(|p, q| if p <= q { u[p][q] } else { u[q][p] });
         for k in 0..3 {
             m[(k, k)] += c_sum;
@@ -176,10 +190,20 @@ impl Mechanism {
         accel: &Vector6<f64>,
         tau: &Vector6<f64>,
     ) -> Vector6<f64> {
+        self.residual_from(legs, &self.inertia_world(legs), twist, accel, tau)
+    }
+
+    /// [`Mechanism::residual`] with R I_A Rᵀ computed by the caller.
+    fn residual_from(
+        &self,
+        legs: &LegGeometry,
+        inertia_world: &Matrix3<f64>,
+        twist: &Vector6<f64>,
+        accel: &Vector6<f64>,
+        tau: &Vector6<f64>,
+    ) -> Vector6<f64> {
         let (v, w) = split(twist);
         let (a, dw) = split(accel);
-        let rot = &legs.rot_world;
-        let inertia_world = rot * self.inertia_platform * rot.transpose();
         let m = self.params.platform.mass;
         let mut force = (a + Vector3::z() * self.params.gravity) * m;
         let mut moment = inertia_world * dw + w.cross(&(inertia_world * w));
@@ -203,9 +227,16 @@ impl Mechanism {
     pub fn terms(&self, pose: &Pose, twist: &Vector6<f64>) -> DynamicsTerms {
         let legs = self.inverse_kinematics(pose);
         let jacobian = legs.jacobian();
+        let inertia_world = self.inertia_world(&legs);
         DynamicsTerms {
-            mass: self.mass_matrix(&legs),
-            bias: self.bias(&legs, twist),
+            mass: self.mass_matrix_from(&legs, &jacobian, &inertia_world),
+            bias: self.residual_from(
+                &legs,
+                &inertia_world,
+                twist,
+                &Vector6::zeros(),
+                &Vector6::zeros(),
+            ),
             leg_rates: jacobian * twist,
             jacobian,
             legs,

@@ -9,7 +9,9 @@
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;
-use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State, Workspace};
+use ckcm::{
+    DormandPrince, Integrator, LegGeometry, Mechanism, Params, Pose, Rk4, State, Workspace,
+};
 use fmi2::export::values::{ByteReader, ByteWriter, Values};
 use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 use rand_chacha::ChaCha8Rng;
@@ -123,11 +125,13 @@ impl Noise {
 }
 
 impl Sim {
-    /// Checks `state` against the workspace (strokes, base plane, finiteness).
-    fn check(&self, state: &State) -> Result<(), ckcm::WorkspaceError> {
+    /// Checks `state` against the workspace (strokes, base plane, finiteness); its leg
+    /// geometry, which the outputs need too.
+    fn check(&self, state: &State) -> Result<LegGeometry, ckcm::WorkspaceError> {
         let legs = self.mechanism.inverse_kinematics(&state.pose);
         let twist_finite = state.twist.iter().all(|x| x.is_finite());
-        self.workspace.check(&state.pose, twist_finite, &legs)
+        self.workspace.check(&state.pose, twist_finite, &legs)?;
+        Ok(legs)
     }
 }
 
@@ -218,6 +222,12 @@ impl CkcmPlant {
     fn write_outputs(&mut self) {
         let Some(sim) = &self.sim else { return };
         let legs = sim.mechanism.inverse_kinematics(&sim.state.pose);
+        self.write_outputs_from(&legs);
+    }
+
+    /// The outputs from the current state's leg geometry.
+    fn write_outputs_from(&mut self, legs: &LegGeometry) {
+        let Some(sim) = &self.sim else { return };
         let rates = legs.leg_rates(&sim.state.twist);
         let pose = sim.state.pose.to_xyz_euler();
         let mut length: [f64; 6] = legs.length.into();
@@ -295,7 +305,7 @@ impl Model for CkcmPlant {
             Ok(()) => sim.check(&next).map_err(|e| format!("at t = {end} s {e}")),
             Err(e) => Err(format!("at t = {end} s {e}")),
         };
-        checked.map_err(|e| {
+        let legs = checked.map_err(|e| {
             ModelError::discard(format!(
                 "the step from t = {t} s by {h} s under force = {:?} N is refused: {e}",
                 force.as_slice()
@@ -304,7 +314,7 @@ impl Model for CkcmPlant {
         sim.state = next;
         sim.integrator = integrator;
         sim.point += 1;
-        self.write_outputs();
+        self.write_outputs_from(&legs);
         Ok(())
     }
 
