@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
+use orchestrator::scenario::RecordFormat;
 
 /// FMI 2.0 co-simulation master for learning-control studies.
 #[derive(Debug, Parser)]
@@ -44,6 +45,10 @@ pub struct RunArgs {
     /// Override the scenario's number of trials.
     #[arg(long)]
     pub trials: Option<usize>,
+    /// File format of the recorded trials, overriding the scenario's `[record] format`:
+    /// csv (trials/trial_NNN.csv) or parquet (trials/trial_NNN.parquet, binary doubles).
+    #[arg(long, value_enum, value_name = "FORMAT")]
+    pub record_format: Option<RecordFormat>,
     /// Ask the FMUs for debug logging (messages go to stderr).
     #[arg(long)]
     pub fmu_logging: bool,

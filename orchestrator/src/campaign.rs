@@ -33,7 +33,7 @@ use crate::master::{Master, MasterError, TrialSignals};
 use crate::output::{
     CsvExporter, OutputError, Recording, write_atomic, write_recording, write_table_csv,
 };
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::{RecordFormat, Scenario, ScenarioError};
 
 /// A campaign failure.
 #[derive(Debug, thiserror::Error)]
@@ -219,9 +219,16 @@ struct Progress {
     fingerprint: String,
 }
 
-/// The recording of trial `k` in campaign folder `dir`: the one place that names it.
+/// The CSV recording of trial `k` in campaign folder `dir`.
 pub fn trial_csv(dir: &Path, k: usize) -> PathBuf {
-    dir.join("trials").join(format!("trial_{k:03}.csv"))
+    trial_file(dir, k, RecordFormat::Csv)
+}
+
+/// The recording of trial `k` in campaign folder `dir` in `format`: the one place that
+/// names it.
+pub fn trial_file(dir: &Path, k: usize, format: RecordFormat) -> PathBuf {
+    let ext = format.exporter().extension();
+    dir.join("trials").join(format!("trial_{k:03}.{ext}"))
 }
 
 fn memory_file(dir: &Path, k: usize) -> PathBuf {
@@ -509,7 +516,7 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
                 || (sub.ends_with("trials")
                     && text
                         .strip_prefix("trial_")
-                        .and_then(|r| r.strip_suffix(".csv"))
+                        .and_then(|r| r.strip_suffix(".csv").or(r.strip_suffix(".parquet")))
                         .and_then(|n| n.parse::<usize>().ok())
                         .is_some_and(|k| k >= completed));
             if stale {
@@ -638,7 +645,8 @@ pub fn run_campaign(
             crash.tick();
         }
         if record_this {
-            write_recording(&trial_csv(dir, k), &recording, &CsvExporter)?;
+            let format = scenario.record.format;
+            write_recording(&trial_file(dir, k, format), &recording, format.exporter())?;
             crash.tick();
         }
         write_memory(&memory_file(dir, k), &master.memory())?;

@@ -91,6 +91,7 @@ fn no_record() -> RawRecord {
         variables: Vec::new(),
         interval: one(),
         trials: None,
+        format: None,
     }
 }
 
@@ -153,6 +154,9 @@ struct RawRecord {
     /// Trials to record (default: all).
     #[serde(default)]
     trials: Option<Spanned<Vec<usize>>>,
+    /// File format of the recorded trials, `"csv"` (default) or `"parquet"`.
+    #[serde(default)]
+    format: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -278,6 +282,28 @@ pub struct Record {
     pub interval: usize,
     /// Trials to record; `None` means all.
     pub trials: Option<BTreeSet<usize>>,
+    /// File format of each recorded trial (`[record] format`, default CSV).
+    pub format: RecordFormat,
+}
+
+/// How a recorded trial is written (`trials/trial_NNN.csv` or `.parquet`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum RecordFormat {
+    /// Comma-separated text, every number in its shortest exact form.
+    #[default]
+    Csv,
+    /// Apache Parquet: binary doubles, read by pandas, polars and MATLAB as they are.
+    Parquet,
+}
+
+impl RecordFormat {
+    /// The exporter writing this format.
+    pub fn exporter(self) -> &'static dyn crate::output::Exporter {
+        match self {
+            RecordFormat::Csv => &crate::output::CsvExporter,
+            RecordFormat::Parquet => &crate::output::ParquetExporter,
+        }
+    }
 }
 
 impl Record {
@@ -628,6 +654,22 @@ impl Scenario {
                 "record.interval must be at least 1",
             ));
         }
+        let format = match raw
+            .record
+            .format
+            .as_ref()
+            .map(|f| (f, f.get_ref().as_str()))
+        {
+            None | Some((_, "csv")) => RecordFormat::Csv,
+            Some((_, "parquet")) => RecordFormat::Parquet,
+            Some((f, other)) => {
+                cx.keep::<()>(cx.err(
+                    f.span(),
+                    format!("record.format {other:?} is not \"csv\" or \"parquet\""),
+                ));
+                RecordFormat::Csv
+            }
+        };
         let rec_trials = match &raw.record.trials {
             None => None,
             Some(t) => {
@@ -724,6 +766,7 @@ impl Scenario {
                 ports,
                 interval,
                 trials: rec_trials,
+                format,
             },
             metrics,
             memory_limit_mib: raw.memory_limit_mib.as_ref().map(|m| *m.get_ref()),

@@ -15,6 +15,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::ensure!(trials >= 1, "--trials must be at least 1");
         scenario.trials = trials;
     }
+    if let Some(format) = args.record_format {
+        scenario.record.format = format;
+    }
     let out_dir = args.out.unwrap_or_else(|| {
         PathBuf::from("results").join(args.scenario.file_stem().unwrap_or_default())
     });

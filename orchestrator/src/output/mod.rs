@@ -1,5 +1,5 @@
-//! Result files the orchestrator leaves for users: per-trial recordings, summary tables and
-//! SVG plots.
+//! Result files the orchestrator leaves for users: per-trial recordings (CSV or Parquet),
+//! summary tables and SVG plots.
 //!
 //! Every file goes through [`write_atomic`], so an interrupted run leaves either the previous
 //! file or the complete new one, never a torn file that `--resume` or a reader would misparse.
@@ -7,6 +7,7 @@
 mod atomic;
 pub mod convergence_plot;
 mod csv;
+mod parquet;
 pub mod plots;
 mod recording;
 pub mod sweep_plots;
@@ -17,6 +18,7 @@ pub use self::atomic::write_atomic;
 pub use self::csv::{
     CsvExporter, CsvWithText, Exporter, read_recording_csv, write_recording, write_table_csv,
 };
+pub use self::parquet::ParquetExporter;
 pub use self::recording::Recording;
 
 /// Failure to write or read a result file; every variant names the file so a user running a
