@@ -8,11 +8,11 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use ckcm::closed_loop::run_trial;
+use ckcm::closed_loop::run_trial_with_table;
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    ControlSettings, DormandPrince, Hlcs, Integrator, Mechanism, Params, Pose, Rk4, State,
-    Trajectory,
+    ControlSettings, DormandPrince, Hlcs, Integrator, Mechanism, Params, Pose, ReferenceTable, Rk4,
+    State, Trajectory,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -111,15 +111,18 @@ fn floor_trial(c: &mut Criterion) {
     let zero = vec![Vector6::zeros(); steps];
     let mut memory = vec![Vector6::zeros(); steps];
     let mut next = vec![Vector6::zeros(); steps];
+    // The reference terms once for every trial, as the controller FMU does.
+    let table = ReferenceTable::new(&nominal, &trajectory, 0.0, H);
     let run = |read: &[Vector6<f64>], write: &mut [Vector6<f64>]| {
         let mut controller = Hlcs::new(nominal, ControlSettings::default());
         let mut integrator = Integrator::default();
-        run_trial(
+        run_trial_with_table(
             &mech,
             &mut integrator,
             &mut controller,
             &trajectory,
             H,
+            Some(&table),
             read,
             write,
             |_, _, _, _| {},

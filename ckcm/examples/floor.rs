@@ -1,5 +1,5 @@
 //! Times the FMI-free floor: one 15 s line trial of HLCS, repeated.
-use ckcm::closed_loop::run_trial;
+use ckcm::closed_loop::run_trial_with_table;
 use ckcm::nalgebra::Vector6;
 use ckcm::*;
 
@@ -15,16 +15,19 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(10);
+    // The reference terms once for every trial, as the controller FMU does.
+    let table = ReferenceTable::new(&nominal, &traj, 0.0, h);
     let start = std::time::Instant::now();
     for _ in 0..reps {
         let mut ctl = Hlcs::new(nominal, ControlSettings::default());
         let mut integ = Integrator::default();
-        run_trial(
+        run_trial_with_table(
             &plant,
             &mut integ,
             &mut ctl,
             &traj,
             h,
+            Some(&table),
             &mem,
             &mut next,
             |_, _, _, _| {},

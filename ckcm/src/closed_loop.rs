@@ -95,3 +95,58 @@ pub fn run_trial_with_table(
     }
     Ok(state)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Params;
+
+    /// A learning line trial gives the same bits with the reference table as without it,
+    /// and a table made for another step is ignored rather than misused.
+    #[test]
+    fn the_table_changes_no_bit() {
+        let plant = Mechanism::new(Params::default()).unwrap();
+        let nominal = Mechanism::new(Params::nominal()).unwrap();
+        let trajectory = Trajectory {
+            duration: 0.5,
+            ..Trajectory::line(plant.params.geometry.home_height)
+        };
+        let h = 1e-3;
+        let memory: Vec<Vector6<f64>> =
+            (0..600).map(|n| Vector6::repeat(1e-2 * n as f64)).collect();
+        let run = |table: Option<&ReferenceTable>| {
+            let mut controller = Hlcs::new(nominal, Default::default());
+            let mut next = vec![Vector6::zeros(); memory.len()];
+            let mut seen = Vec::new();
+            run_trial_with_table(
+                &plant,
+                &mut Integrator::default(),
+                &mut controller,
+                &trajectory,
+                h,
+                table,
+                &memory,
+                &mut next,
+                |_, state, _, out| {
+                    let bits = |v: &Vector6<f64>| v.map(f64::to_bits);
+                    seen.push((
+                        state.twist.map(f64::to_bits),
+                        bits(&out.force),
+                        bits(&out.error),
+                    ));
+                },
+            )
+            .unwrap();
+            (seen, next)
+        };
+        let without = run(None);
+        assert_eq!(
+            run(Some(&ReferenceTable::new(&nominal, &trajectory, 0.0, h))),
+            without
+        );
+        assert_eq!(
+            run(Some(&ReferenceTable::new(&nominal, &trajectory, 0.0, 2e-3))),
+            without
+        );
+    }
+}
