@@ -12,8 +12,8 @@ use ckcm::{
     ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, ParamError, Params, Pose,
     Reference, Trajectory, TrajectoryKind,
 };
-use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
+use fmu_core::values::{ByteReader, ByteWriter, Values};
+use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 
 /// Generated from `modelDescription/HlcsController.xml` by the build script.
 pub mod md {
@@ -200,7 +200,7 @@ impl HlcsController {
 impl Model for HlcsController {
     const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
     const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
+    const VARIABLES: &'static [fmu_core::VarSpec] = md::VARIABLES;
     const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
 
     fn new() -> Self {
@@ -289,7 +289,7 @@ impl Model for HlcsController {
     }
 }
 
-fmi2::export_fmu!(HlcsController);
+fmi2_export::export_fmu!(HlcsController);
 
 #[cfg(test)]
 mod tests {

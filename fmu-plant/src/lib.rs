@@ -10,8 +10,8 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{DormandPrince, Integrator, Mechanism, Params, Pose, Rk4, State, Workspace};
-use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
+use fmu_core::values::{ByteReader, ByteWriter, Values};
+use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -236,7 +236,7 @@ impl CkcmPlant {
 impl Model for CkcmPlant {
     const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
     const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
+    const VARIABLES: &'static [fmu_core::VarSpec] = md::VARIABLES;
     const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
 
     fn new() -> Self {
@@ -367,7 +367,7 @@ impl Model for CkcmPlant {
     }
 }
 
-fmi2::export_fmu!(CkcmPlant);
+fmi2_export::export_fmu!(CkcmPlant);
 
 #[cfg(test)]
 mod tests {
@@ -385,7 +385,7 @@ mod tests {
             .unwrap();
         rod.name = "rod_mass_kg";
         let e = mechanism_params(&renamed, &values).unwrap_err();
-        assert_eq!(e.status, fmi2::Status::Error);
+        assert_eq!(e.severity, fmu_core::Severity::Error);
         assert!(
             e.message
                 .starts_with("parameter `rod_mass_kg` is not a mechanism parameter"),
