@@ -4,7 +4,7 @@
 //! the law of `ckcm::control` and holds the outputs over [t_n, t_n + h]. Before the first
 //! step (after initialization) the outputs preview the law at the start time with the
 //! integral of past samples only (none yet).
-// Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
+// Only the export macro of `fmi2-export` may bring unsafe code in (it allows it explicitly).
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;

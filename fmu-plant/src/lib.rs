@@ -5,7 +5,7 @@
 //! Dormand–Prince); leg lengths, leg rates and the platform pose go out. The reported
 //! lengths and rates may carry seeded sensor noise (docs/model.md §10); the noise-free
 //! values stay observable as `length_true` and `velocity_true`.
-// Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
+// Only the export macro of `fmi2-export` may bring unsafe code in (it allows it explicitly).
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;

@@ -1,5 +1,5 @@
 /*
- * fmi2CallbackLogger for the import side of the fmi2 crate.
+ * fmi2CallbackLogger for the import crate (fmi2-import).
  *
  * The logger is C-variadic (printf-style), which stable Rust can call but not
  * define, so this shim formats the message and forwards the finished text to a
@@ -14,7 +14,7 @@
 typedef void (*fmi2_import_sink)(void *env, const char *instance_name, int status,
                                  const char *category, const char *message);
 
-/* Layout of the Rust `LogEnv` prefix (fmi2/src/import/logger.rs). */
+/* Layout of the Rust `LogEnv` prefix (src/logger.rs). */
 struct fmi2_import_env {
     fmi2_import_sink sink;
 };

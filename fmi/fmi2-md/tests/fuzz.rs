@@ -4,8 +4,8 @@
 //! be an `MdError`; whatever parses must also validate and generate code without panicking.
 //!
 //! Bounded: `FUZZ_CASES` mutated inputs (default 10,000, about a second in release); raise it
-//! for a longer campaign, e.g. `FUZZ_CASES=200000 cargo test --release -p fmi2 --test fuzz_md`.
-//! A failing case is shrunk by proptest and its seed kept in `fuzz_md.regressions` beside
+//! for a longer campaign, e.g. `FUZZ_CASES=200000 cargo test --release -p fmi2-md --test fuzz`.
+//! A failing case is shrunk by proptest and its seed kept in `fuzz.regressions` beside
 //! this file (replayed first on every run); a new seed file goes into the corpus folder.
 
 use std::path::{Path, PathBuf};
