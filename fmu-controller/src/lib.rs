@@ -198,42 +198,13 @@ impl HlcsController {
 }
 
 impl Model for HlcsController {
-    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
-    const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmu_core::VarSpec] = md::VARIABLES;
-    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+    fmu_core::values_model!(md, values);
 
     fn new() -> Self {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
         }
-    }
-
-    fn get_real(&self, vr: u32) -> f64 {
-        self.values.real(vr)
-    }
-
-    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
-        self.values.set_finite_real(md::VARIABLES, vr, value)
-    }
-
-    fn get_integer(&self, vr: u32) -> i32 {
-        self.values.integer(vr)
-    }
-
-    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
-        self.values.set_integer(vr, value);
-        Ok(())
-    }
-
-    fn get_boolean(&self, vr: u32) -> bool {
-        self.values.boolean(vr)
-    }
-
-    fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
-        self.values.set_boolean(vr, value);
-        Ok(())
     }
 
     fn initialize(&mut self, start_time: f64) -> ModelResult<()> {

@@ -234,33 +234,13 @@ impl CkcmPlant {
 }
 
 impl Model for CkcmPlant {
-    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
-    const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmu_core::VarSpec] = md::VARIABLES;
-    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+    fmu_core::values_model!(md, values);
 
     fn new() -> Self {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
         }
-    }
-
-    fn get_real(&self, vr: u32) -> f64 {
-        self.values.real(vr)
-    }
-
-    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
-        self.values.set_finite_real(md::VARIABLES, vr, value)
-    }
-
-    fn get_integer(&self, vr: u32) -> i32 {
-        self.values.integer(vr)
-    }
-
-    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
-        self.values.set_integer(vr, value);
-        Ok(())
     }
 
     fn initialize(&mut self, start_time: f64) -> ModelResult<()> {

@@ -177,3 +177,54 @@ pub trait Model: Clone + Send + 'static {
     /// Rebuilds the state written by `save` (the glue has checked header, model and version).
     fn restore(&mut self, bytes: &[u8]) -> ModelResult<()>;
 }
+
+/// The part of an `impl Model` that every FMU here writes the same way, for a model that keeps
+/// all its variables in a [`values::Values`] field: the four constants from the generated table
+/// module and the typed getters and setters.
+///
+/// ```ignore
+/// impl Model for MyModel {
+///     fmu_core::values_model!(md, values); // the generated `md` module, the `Values` field
+///     fn new() -> Self { … }
+///     // initialize, do_step, save, restore
+/// }
+/// ```
+///
+/// A Real that is not finite is refused with an error naming the variable (no model here has a
+/// use for NaN or infinities, and they would poison every later step); Integers and Booleans
+/// are stored as given, the glue having checked type, settability and declared range.
+#[macro_export]
+macro_rules! values_model {
+    ($md:ident, $values:ident) => {
+        const MODEL_IDENTIFIER: &'static str = $md::MODEL_IDENTIFIER;
+        const GUID: &'static str = $md::GUID;
+        const VARIABLES: &'static [$crate::VarSpec] = $md::VARIABLES;
+        const CAN_HANDLE_VARIABLE_STEP: bool = $md::CAN_HANDLE_VARIABLE_STEP;
+
+        fn get_real(&self, vr: u32) -> f64 {
+            self.$values.real(vr)
+        }
+
+        fn set_real(&mut self, vr: u32, value: f64) -> $crate::ModelResult<()> {
+            self.$values.set_finite_real($md::VARIABLES, vr, value)
+        }
+
+        fn get_integer(&self, vr: u32) -> i32 {
+            self.$values.integer(vr)
+        }
+
+        fn set_integer(&mut self, vr: u32, value: i32) -> $crate::ModelResult<()> {
+            self.$values.set_integer(vr, value);
+            Ok(())
+        }
+
+        fn get_boolean(&self, vr: u32) -> bool {
+            self.$values.boolean(vr)
+        }
+
+        fn set_boolean(&mut self, vr: u32, value: bool) -> $crate::ModelResult<()> {
+            self.$values.set_boolean(vr, value);
+            Ok(())
+        }
+    };
+}
