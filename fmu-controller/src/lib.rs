@@ -4,7 +4,7 @@
 //! the law of `ckcm::control` and holds the outputs over [t_n, t_n + h]. Before the first
 //! step (after initialization) the outputs preview the law at the start time with the
 //! integral of past samples only (none yet).
-// Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
+// Only the export macro of `fmi2-export` may bring unsafe code in (it allows it explicitly).
 #![deny(unsafe_code)]
 
 use std::sync::{Arc, Mutex, PoisonError};
@@ -14,8 +14,8 @@ use ckcm::{
     ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, ParamError, Params, Pose,
     Reference, ReferenceTable, ReferenceTerms, Trajectory, TrajectoryKind,
 };
-use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
+use fmu_core::values::{ByteReader, ByteWriter, Values};
+use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 
 /// Generated from `modelDescription/HlcsController.xml` by the build script.
 pub mod md {
@@ -252,42 +252,13 @@ impl HlcsController {
 }
 
 impl Model for HlcsController {
-    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
-    const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
-    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+    fmu_core::values_model!(md, values);
 
     fn new() -> Self {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
         }
-    }
-
-    fn get_real(&self, vr: u32) -> f64 {
-        self.values.real(vr)
-    }
-
-    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
-        self.values.set_finite_real(md::VARIABLES, vr, value)
-    }
-
-    fn get_integer(&self, vr: u32) -> i32 {
-        self.values.integer(vr)
-    }
-
-    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
-        self.values.set_integer(vr, value);
-        Ok(())
-    }
-
-    fn get_boolean(&self, vr: u32) -> bool {
-        self.values.boolean(vr)
-    }
-
-    fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
-        self.values.set_boolean(vr, value);
-        Ok(())
     }
 
     fn initialize(&mut self, start_time: f64) -> ModelResult<()> {
@@ -343,7 +314,7 @@ impl Model for HlcsController {
     }
 }
 
-fmi2::export_fmu!(HlcsController);
+fmi2_export::export_fmu!(HlcsController);
 
 #[cfg(test)]
 mod tests {

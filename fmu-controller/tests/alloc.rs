@@ -1,10 +1,10 @@
 //! After a warm-up step, the controller's doStep with its input/output calls performs no heap
 //! allocation (line trajectory, learning on): checked with a counting global allocator while
-//! the model is driven through the safe `fmi2::export::Model` trait.
+//! the model is driven through the safe `fmu_core::Model` trait.
 
 use alloc_count::{CountingAllocator, allocations};
 use ckcm::{Mechanism, Params, Trajectory};
-use fmi2::export::Model;
+use fmu_core::Model;
 use hlcs_controller::HlcsController;
 use hlcs_controller::md::VARIABLES;
 

@@ -7,7 +7,7 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{ControlInput, ControlSettings, Hlcs, Mechanism, Params, Trajectory};
-use fmi2::export::Model;
+use fmu_core::Model;
 use hlcs_controller::HlcsController;
 use hlcs_controller::md::VARIABLES;
 

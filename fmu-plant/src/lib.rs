@@ -5,15 +5,15 @@
 //! Dormand–Prince); leg lengths, leg rates and the platform pose go out. The reported
 //! lengths and rates may carry seeded sensor noise (docs/model.md §10); the noise-free
 //! values stay observable as `length_true` and `velocity_true`.
-// Only the export macro of `fmi2` may bring unsafe code in (it allows it explicitly).
+// Only the export macro of `fmi2-export` may bring unsafe code in (it allows it explicitly).
 #![deny(unsafe_code)]
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{
     DormandPrince, Integrator, LegGeometry, Mechanism, Params, Pose, Rk4, State, Workspace,
 };
-use fmi2::export::values::{ByteReader, ByteWriter, Values};
-use fmi2::export::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
+use fmu_core::values::{ByteReader, ByteWriter, Values};
+use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -244,33 +244,13 @@ impl CkcmPlant {
 }
 
 impl Model for CkcmPlant {
-    const MODEL_IDENTIFIER: &'static str = md::MODEL_IDENTIFIER;
-    const GUID: &'static str = md::GUID;
-    const VARIABLES: &'static [fmi2::export::VarSpec] = md::VARIABLES;
-    const CAN_HANDLE_VARIABLE_STEP: bool = md::CAN_HANDLE_VARIABLE_STEP;
+    fmu_core::values_model!(md, values);
 
     fn new() -> Self {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
         }
-    }
-
-    fn get_real(&self, vr: u32) -> f64 {
-        self.values.real(vr)
-    }
-
-    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()> {
-        self.values.set_finite_real(md::VARIABLES, vr, value)
-    }
-
-    fn get_integer(&self, vr: u32) -> i32 {
-        self.values.integer(vr)
-    }
-
-    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
-        self.values.set_integer(vr, value);
-        Ok(())
     }
 
     fn initialize(&mut self, start_time: f64) -> ModelResult<()> {
@@ -377,7 +357,7 @@ impl Model for CkcmPlant {
     }
 }
 
-fmi2::export_fmu!(CkcmPlant);
+fmi2_export::export_fmu!(CkcmPlant);
 
 #[cfg(test)]
 mod tests {
@@ -395,7 +375,7 @@ mod tests {
             .unwrap();
         rod.name = "rod_mass_kg";
         let e = mechanism_params(&renamed, &values).unwrap_err();
-        assert_eq!(e.status, fmi2::Status::Error);
+        assert_eq!(e.severity, fmu_core::Severity::Error);
         assert!(
             e.message
                 .starts_with("parameter `rod_mass_kg` is not a mechanism parameter"),

@@ -1,12 +1,12 @@
 //! After a warm-up step, the plant's doStep with its input/output calls performs no heap
 //! allocation, with either integrator: checked with a counting global allocator while the
-//! model is driven through the safe `fmi2::export::Model` trait.
+//! model is driven through the safe `fmu_core::Model` trait.
 
 use alloc_count::{CountingAllocator, allocations};
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
 use ckcm_plant::md::VARIABLES;
-use fmi2::export::Model;
+use fmu_core::Model;
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;

@@ -1,12 +1,12 @@
 //! Sensor noise of the plant (docs/model.md §10), driven through the safe
-//! `fmi2::export::Model` trait: σ = 0 changes nothing, a value depends only on the seed,
+//! `fmu_core::Model` trait: σ = 0 changes nothing, a value depends only on the seed,
 //! the communication point and the channel (repeated gets, state save/restore), seeds
 //! differ, and the noise has the stated σ.
 
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
 use ckcm_plant::md::VARIABLES;
-use fmi2::export::Model;
+use fmu_core::Model;
 
 /// Value reference of a variable by name.
 fn vr(name: &str) -> u32 {

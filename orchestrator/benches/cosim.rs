@@ -14,7 +14,7 @@ use ckcm::closed_loop::run_trial_with_table;
 use ckcm::nalgebra::Vector6;
 use ckcm::{ControlSettings, Hlcs, Integrator, Mechanism, Params, ReferenceTable, Trajectory};
 use criterion::{Criterion, criterion_group, criterion_main};
-use fmi2::import::{Fmu, Instance};
+use fmi2_import::{Fmu, Instance};
 use orchestrator::master::Master;
 use orchestrator::scenario::Scenario;
 

@@ -25,7 +25,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
-use fmi2::import::Fmu;
+use fmi2_import::Fmu;
 use indicatif::{ProgressBar, ProgressStyle};
 
 pub use self::lock::{DirLock, LOCK_FILE};

@@ -19,7 +19,7 @@ fn main() -> ExitCode {
     // and `run --resume` removes temporaries an interrupted run left behind. Without a
     // handler (if installing it fails) the next start reaps the folders instead.
     let _ = ctrlc::set_handler(|| {
-        let removed = fmi2::import::remove_extraction_dirs();
+        let removed = fmi2_import::remove_extraction_dirs();
         eprintln!(
             "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign"
         );

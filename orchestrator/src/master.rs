@@ -8,7 +8,7 @@
 use std::ops::Range;
 
 use ckcm::learning::MemoryUpdate;
-use fmi2::import::{Fmu, ImportError, Instance};
+use fmi2_import::{Fmu, ImportError, Instance};
 
 use crate::output::Recording;
 use crate::scenario::{Port, Scenario};
@@ -465,7 +465,7 @@ impl<'s> Master<'s> {
                         if matches!(
                             *source,
                             ImportError::Call {
-                                status: fmi2::Status::Discard,
+                                status: fmi2_import::Status::Discard,
                                 ..
                             }
                         ) {

@@ -8,11 +8,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use ckcm::learning::{LowPass, UpdateSettings};
-use fmi2::import::Fmu;
-use fmi2::md::{Causality, VarType};
+use fmi2_import::Fmu;
+use fmi2_md::{Causality, VarType};
 
 use crate::variables::{Literal, check_value, convert, resolve, settable};
-use fmi2::md::{ModelDescription, VariableKind};
+use fmi2_md::{ModelDescription, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -1050,7 +1050,7 @@ fn resolve_port(
         var_type,
         sampled: vars
             .iter()
-            .all(|v| v.variability == fmi2::md::Variability::Discrete),
+            .all(|v| v.variability == fmi2_md::Variability::Discrete),
     })
 }
 
@@ -1123,7 +1123,7 @@ fn parameter_settings(
 /// declared min/max, checked here so that a campaign never fails at trial 37.
 fn per_trial_values(
     cx: &Ctx<'_>,
-    v: &fmi2::md::ScalarVariable,
+    v: &fmi2_md::ScalarVariable,
     span: std::ops::Range<usize>,
     table: &toml::Table,
     trials: usize,

@@ -9,10 +9,10 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
-use fmi2::Status;
-use fmi2::import::{Fmu, ImportError, Instance};
-use fmi2::md::Causality;
-use fmi2::md::{ModelDescription, ScalarVariable, VariableKind};
+use fmi2_import::Status;
+use fmi2_import::{Fmu, ImportError, Instance};
+use fmi2_md::Causality;
+use fmi2_md::{ModelDescription, ScalarVariable, VariableKind};
 
 use crate::master::STATUS_CATEGORIES;
 use crate::output::Recording;

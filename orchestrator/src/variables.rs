@@ -2,10 +2,10 @@
 //! names, one value type, one rule for what a master may set, and one check of a value
 //! against its declaration, so that a name or a value means the same wherever it is written.
 
-use fmi2::Status;
-use fmi2::import::{ImportError, Instance};
-use fmi2::md::{Causality, Variability};
-use fmi2::md::{Initial, Item, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use fmi2_import::Status;
+use fmi2_import::{ImportError, Instance};
+use fmi2_md::{Causality, Variability};
+use fmi2_md::{Initial, Item, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 
 /// A value of a variable's base type.
 #[derive(Debug, Clone, PartialEq)]

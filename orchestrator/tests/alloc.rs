@@ -2,7 +2,7 @@
 //! between buffers sized in `Master::new`, `new_recording` and `new_signals`.
 //!
 //! The counting allocator is this test binary's global allocator, so it counts the master's
-//! own allocations (and fmi2::import's); the FMUs are shared libraries with their own
+//! own allocations (and fmi2-import's); the FMUs are shared libraries with their own
 //! allocator, covered by the tests in fmu-plant/ and fmu-controller/.
 //!
 //! To find an allocation, run with `CKCM_ALLOC_BACKTRACE=1` (and `--nocapture`): every counted

@@ -145,7 +145,7 @@ fn malformed_model_description() {
         .count();
     let fmu = dir.path().join("malformed.fmu");
     // No binary: the description is read first, so its error must win.
-    fmi2::import::write_fmu(&fmu, &xml, None, &[]).unwrap();
+    fmu_build::write_fmu(&fmu, &xml, None, &[]).unwrap();
     check_fmu_problem(
         dir.path(),
         &fmu,
@@ -164,7 +164,7 @@ fn fmi_1_model_description() {
 </fmiModelDescription>
 "#;
     let fmu = dir.path().join("legacy.fmu");
-    fmi2::import::write_fmu(&fmu, xml, None, &[]).unwrap();
+    fmu_build::write_fmu(&fmu, xml, None, &[]).unwrap();
     check_fmu_problem(
         dir.path(),
         &fmu,
@@ -205,15 +205,15 @@ fn model_exchange_only_description() {
 fn missing_binary() {
     let dir = tempfile::tempdir().unwrap();
     let fmu = dir.path().join("nobinary.fmu");
-    fmi2::import::write_fmu(&fmu, &foreign_xml(), None, &[]).unwrap();
+    fmu_build::write_fmu(&fmu, &foreign_xml(), None, &[]).unwrap();
     check_fmu_problem(
         dir.path(),
         &fmu,
         &format!(
             "no binary for this platform ({0}): expected binaries/{0}/ForeignOscillator.{1} \
              inside the archive; the archive has no binaries for any platform",
-            fmi2::import::PLATFORM,
-            fmi2::import::SHARED_LIBRARY_EXTENSION
+            fmi2_import::PLATFORM,
+            fmi2_import::SHARED_LIBRARY_EXTENSION
         ),
     );
 }

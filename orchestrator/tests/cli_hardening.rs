@@ -218,7 +218,7 @@ fn extraction_dirs(temp: &Path) -> Vec<String> {
         .unwrap()
         .filter_map(Result::ok)
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(fmi2::import::EXTRACTION_PREFIX))
+        .filter(|n| n.starts_with(fmi2_import::EXTRACTION_PREFIX))
         .collect()
 }
 
@@ -294,7 +294,7 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
     assert_eq!(stale.len(), 1);
     let alive = temp.join(format!(
         "{}{}-keep",
-        fmi2::import::EXTRACTION_PREFIX,
+        fmi2_import::EXTRACTION_PREFIX,
         std::process::id()
     ));
     std::fs::create_dir(&alive).unwrap();

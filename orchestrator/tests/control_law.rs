@@ -8,7 +8,7 @@ mod common;
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{Mechanism, Params, Pose};
-use fmi2::import::{Fmu, Instance};
+use fmi2_import::{Fmu, Instance};
 
 fn open(name: &str) -> Fmu {
     Fmu::open(common::built_fmu(name)).unwrap()

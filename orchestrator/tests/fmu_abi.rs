@@ -1,9 +1,9 @@
-//! The packaged FMUs through the C ABI (loaded with `fmi2::import`): independence of
+//! The packaged FMUs through the C ABI (loaded with `fmi2-import`): independence of
 //! instances, FMU-state serialization, and the errors a user meets first.
 
 mod common;
 
-use fmi2::import::{Fmu, Instance};
+use fmi2_import::{Fmu, Instance};
 
 fn fmu(name: &str) -> Fmu {
     let stem = name.strip_suffix(".fmu").unwrap_or(name);
@@ -228,7 +228,7 @@ fn log_categories_match_the_model_descriptions() {
             .map(|c| c.name.as_str())
             .collect();
         // The names the export glue passes to the logger.
-        let glue: Vec<&str> = fmi2::export::LOG_CATEGORIES
+        let glue: Vec<&str> = fmi2_export::LOG_CATEGORIES
             .iter()
             .map(|n| n.to_str().unwrap())
             .collect();

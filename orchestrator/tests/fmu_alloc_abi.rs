@@ -1,5 +1,5 @@
 //! Zero heap allocations per step through the packaged FMUs' C interface (`fmi2SetReal`,
-//! `fmi2DoStep`, `fmi2GetReal` of the built libraries, loaded with `fmi2::import`).
+//! `fmi2DoStep`, `fmi2GetReal` of the built libraries, loaded with `fmi2-import`).
 //!
 //! A test binary's counting allocator sees only its own allocations: each FMU's shared
 //! library has its own global allocator. Both end in the process's `malloc`, so the test
@@ -13,7 +13,7 @@ use std::path::Path;
 use std::process::Command;
 
 use alloc_count::{CountingAllocator, allocations, preloaded_allocations};
-use fmi2::import::{Fmu, Instance};
+use fmi2_import::{Fmu, Instance};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;

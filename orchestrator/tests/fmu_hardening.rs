@@ -1,4 +1,4 @@
-//! The packaged FMUs against hostile input (loaded with `fmi2::import`): declared ranges
+//! The packaged FMUs against hostile input (loaded with `fmi2-import`): declared ranges
 //! enforced on set, at initialization and on deserialization; the plant's workspace
 //! (strokes, base plane, finiteness) discarding a step with the leg, length and time; the
 //! controller never answering fmi2OK with non-finite outputs; corrupted serialized states
@@ -6,9 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::Status;
-use fmi2::import::{Fmu, ImportError, Instance};
-use fmi2::md::{Causality, ModelDescription, VarType};
+use fmi2_import::Status;
+use fmi2_import::{Fmu, ImportError, Instance};
+use fmi2_md::{Causality, ModelDescription, VarType};
 
 fn fmu(name: &str) -> Fmu {
     let dir = std::env::var_os("CKCM_FMU_DIR")

@@ -1,19 +1,19 @@
 //! Every FMI 2.0 function in every reachable state, on both packaged FMUs (loaded with
-//! `fmi2::import`, so each call crosses the real C ABI): no crash, a call the standard's
+//! `fmi2-import`, so each call crosses the real C ABI): no crash, a call the standard's
 //! state table forbids is fmi2Error naming the state, an allowed call never is refused as
 //! an illegal sequence, and the statuses the standard fixes hold (unavailable status kinds
 //! are fmi2Discard, unsupported capabilities fmi2Error).
 //!
 //! The glue's table is checked against an independent transcription of FMI 2.0 §4.2.4 in
-//! `fmi2/tests/export_lifecycle.rs`; here it is the reference. Left out: fmi2FreeInstance
+//! `fmi/fmi2-export/tests/lifecycle.rs`; here it is the reference. Left out: fmi2FreeInstance
 //! and fmi2FreeFMUstate (run on drop, their status is not observable), and the Fatal state,
 //! which these FMUs reach only through a panic (covered with a panicking test model there).
 
 use std::path::{Path, PathBuf};
 
-use fmi2::Status;
-use fmi2::export::{FmiState, Function};
-use fmi2::import::{Fmu, FmuState, ImportError, Instance};
+use fmi2_export::{FmiState, Function};
+use fmi2_import::Status;
+use fmi2_import::{Fmu, FmuState, ImportError, Instance};
 
 fn fmu(name: &str) -> Fmu {
     let dir = std::env::var_os("CKCM_FMU_DIR")
@@ -32,7 +32,7 @@ fn fmu(name: &str) -> Fmu {
 /// (or Enumeration) and a Boolean; a value reference no variable has where the FMU has no
 /// variable of that type (the call then fails on it, after the state check).
 fn some_vrs(f: &Fmu) -> [u32; 4] {
-    use fmi2::md::{Causality, VarType};
+    use fmi2_md::{Causality, VarType};
     let md = f.model_description();
     let find = |ok: &dyn Fn(Causality, VarType) -> bool| {
         md.model_variables

@@ -11,8 +11,8 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::Status;
-use fmi2::import::{Fmu, ImportError, Instance};
+use fmi2_import::Status;
+use fmi2_import::{Fmu, ImportError, Instance};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, TestRunner};
 
@@ -45,7 +45,7 @@ fn real_outputs(f: &Fmu) -> Vec<u32> {
         .model_variables
         .iter()
         .filter(|v| {
-            v.causality == fmi2::md::Causality::Output && v.var_type() == fmi2::md::VarType::Real
+            v.causality == fmi2_md::Causality::Output && v.var_type() == fmi2_md::VarType::Real
         })
         .map(|v| v.value_reference)
         .collect()

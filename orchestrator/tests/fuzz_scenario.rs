@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::md::ModelDescription;
+use fmi2_md::ModelDescription;
 use orchestrator::campaign::memory_estimate;
 use orchestrator::scenario::Scenario;
 use orchestrator::variables::{Value, check_value};

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use common::{built_fmu, column, read_csv};
-use fmi2::import::Fmu;
+use fmi2_import::Fmu;
 use orchestrator::campaign::{CampaignOptions, TrialSummary, run_campaign};
 use orchestrator::scenario::Scenario;
 

@@ -18,9 +18,9 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use fmi2::Status;
-use fmi2::import::{Fmu, Instance};
-use fmi2::md::{Causality, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
+use fmi2_import::Status;
+use fmi2_import::{Fmu, Instance};
+use fmi2_md::{Causality, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 
 /// A value of a variable; `Item` is an enumeration item by name, looked up in the XML.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -256,7 +256,7 @@ fn every_parameter_reaches_the_model(case: &Case) -> usize {
              reach the model",
             case.name
         );
-        if v.variability == fmi2::md::Variability::Tunable {
+        if v.variability == fmi2_md::Variability::Tunable {
             let k = case.steps / 2;
             let tuned = run(case, &settings, Some((k, name, value)));
             assert!(

@@ -106,8 +106,8 @@ fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {
                 object::read::NameOrOrdinal::Ordinal(_) => None,
             })
             .collect();
-        assert_eq!(fmi2::import::SYMBOLS.len(), 34);
-        for symbol in fmi2::import::SYMBOLS {
+        assert_eq!(fmi2_import::SYMBOLS.len(), 34);
+        for symbol in fmi2_import::SYMBOLS {
             assert!(
                 exports.iter().any(|e| e == symbol),
                 "{dll_name} in {} does not export {symbol} by name",

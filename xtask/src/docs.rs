@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use fmi2::md::{ModelDescription, VariableKind};
+use fmi2_md::{ModelDescription, VariableKind};
 
 /// What a user must know beyond the variables table, per model identifier.
 fn semantics(model_identifier: &str) -> &'static str {
@@ -126,7 +126,7 @@ pub fn index_html(md: &ModelDescription) -> String {
                     .iter()
                     .find(|t| &t.name == declared_type)
                     .and_then(|t| match &t.kind {
-                        fmi2::md::SimpleTypeKind::Enumeration { items, .. } => Some(items),
+                        fmi2_md::SimpleTypeKind::Enumeration { items, .. } => Some(items),
                         _ => None,
                     });
                 let start_name = items

@@ -65,7 +65,7 @@ pub fn package_fmu(xml: &Path, lib: &Path, win64_dll: &Path, fmu: &Path) -> Resu
     let md_text =
         fs::read_to_string(xml).with_context(|| format!("cannot read {}", xml.display()))?;
     let md =
-        fmi2::md::ModelDescription::parse(&md_text).with_context(|| xml.display().to_string())?;
+        fmi2_md::ModelDescription::parse(&md_text).with_context(|| xml.display().to_string())?;
     let problems = md.validate();
     if !problems.is_empty() {
         bail!("{} has problems: {problems:?}", xml.display());
@@ -79,7 +79,7 @@ pub fn package_fmu(xml: &Path, lib: &Path, win64_dll: &Path, fmu: &Path) -> Resu
         "binaries/win64/{}.dll",
         md.model_identifier().unwrap_or_default()
     );
-    fmi2::import::write_fmu(
+    fmu_build::write_fmu(
         &tmp,
         &md_text,
         Some(lib),

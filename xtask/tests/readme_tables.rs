@@ -52,10 +52,9 @@ fn table_names(readme: &str, heading: &str, all: &BTreeSet<String>) -> BTreeSet<
 fn readme_tables_match_model_descriptions() {
     let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
     for id in ["CkcmPlant", "HlcsController"] {
-        let md = fmi2::md::ModelDescription::from_file(
-            root().join(format!("modelDescription/{id}.xml")),
-        )
-        .unwrap();
+        let md =
+            fmi2_md::ModelDescription::from_file(root().join(format!("modelDescription/{id}.xml")))
+                .unwrap();
         let all: BTreeSet<String> = md.model_variables.iter().map(|v| v.name.clone()).collect();
         let documented = table_names(&readme, id, &all);
         let unknown: Vec<_> = documented.difference(&all).collect();

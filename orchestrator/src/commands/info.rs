@@ -7,8 +7,8 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use fmi2::import::Fmu;
-use fmi2::md::{
+use fmi2_import::Fmu;
+use fmi2_md::{
     Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind,
     VariableNamingConvention,
 };
@@ -165,7 +165,7 @@ fn platforms(fmu: &Fmu) -> String {
     format!(
         "{} (running here as {})",
         fmu.platforms().join(", "),
-        fmi2::import::PLATFORM
+        fmi2_import::PLATFORM
     )
 }
 

@@ -6,7 +6,7 @@ use std::io;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use fmi2::import::Fmu;
+use fmi2_import::Fmu;
 use orchestrator::output::{CsvWithText, Exporter, write_recording};
 use orchestrator::simulate::{SimulateOptions, simulate};
 

@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use ckcm::{Trajectory, TrajectoryKind};
-use fmi2::import::Fmu;
+use fmi2_import::Fmu;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
 use self::cases::{TRAJECTORIES, traj_slug};

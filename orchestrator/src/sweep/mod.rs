@@ -20,8 +20,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use fmi2::import::Fmu;
-use fmi2::md::ModelDescription;
+use fmi2_import::Fmu;
+use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};

@@ -165,7 +165,7 @@ pub fn foreign_cdylib() -> &'static Path {
 /// Packages the foreign FMU with the given model description into `dir/<file>`.
 pub fn foreign_fmu_with(dir: &Path, file: &str, xml: &str) -> PathBuf {
     let path = dir.join(file);
-    fmi2::import::write_fmu(&path, xml, Some(foreign_cdylib()), &[])
+    fmu_build::write_fmu(&path, xml, Some(foreign_cdylib()), &[])
         .unwrap_or_else(|e| panic!("cannot write {}: {e}", path.display()));
     path
 }

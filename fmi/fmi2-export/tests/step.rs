@@ -1,0 +1,137 @@
+//! Export glue: fmi2DoStep time bookkeeping, discarded steps and status queries.
+
+#[path = "support/mod.rs"]
+mod export_support;
+
+use export_support::{Fmu, fail, vr};
+use fmi2_export::FmiState;
+use fmi2_sys::Status;
+
+#[test]
+fn step_size_must_be_positive_and_finite() {
+    for h in [0.0, -0.01, f64::NAN, f64::INFINITY] {
+        let fmu = Fmu::initialized("h");
+        assert_eq!(fmu.do_step(0.0, h), Status::Error, "h = {h}");
+        assert!(fmu.log.contains(&format!(
+            "fmi2DoStep: communicationStepSize {h} must be finite and > 0"
+        )));
+        assert_eq!(fmu.state(), Some(FmiState::Terminated));
+    }
+}
+
+#[test]
+fn communication_point_must_match_the_fmu_time() {
+    let fmu = Fmu::initialized("cp");
+    assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
+    assert_eq!(fmu.do_step(0.02, 0.01), Status::Error);
+    assert!(
+        fmu.log.contains(
+            "fmi2DoStep: currentCommunicationPoint 0.02 does not match the FMU time 0.01"
+        ),
+        "{:?}",
+        fmu.log.messages()
+    );
+
+    // Within the tolerance 1e-9·max(1, |t|): accepted, and the master's cp is used.
+    let fmu = Fmu::initialized("cp-tol");
+    assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
+    assert_eq!(fmu.do_step(0.01 + 5e-10, 0.01), Status::Ok);
+    assert_eq!(
+        fmu.last_successful_time(),
+        (Status::Ok, 0.01 + 5e-10 + 0.01)
+    );
+    assert_eq!(fmu.do_step(0.02 + 5e-10 + 2e-9, 0.01), Status::Error);
+}
+
+#[test]
+fn time_is_cp_plus_h_without_accumulation() {
+    let fmu = Fmu::initialized("time");
+    let h = 0.001;
+    for n in 0..1000 {
+        // The master computes t_n = n·h, never by summing.
+        let t = f64::from(n) * h;
+        assert_eq!(
+            fmu.do_step(t, h),
+            Status::Ok,
+            "step {n}: {:?}",
+            fmu.log.messages()
+        );
+        assert_eq!(fmu.last_successful_time().1.to_bits(), (t + h).to_bits());
+    }
+}
+
+#[test]
+fn fixed_step_models_keep_the_first_step_size() {
+    let fmu = Fmu::initialized("fixed");
+    assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
+    assert_eq!(
+        fmu.do_step(0.01, 0.01 * (1.0 + 5e-10)),
+        Status::Ok,
+        "within 1e-9 relative"
+    );
+    let t = fmu.last_successful_time().1;
+    assert_eq!(fmu.do_step(t, 0.02), Status::Error);
+    assert!(
+        fmu.log.contains(
+            "fmi2DoStep: communicationStepSize 0.02 differs from the first step size 0.01"
+        )
+    );
+}
+
+#[test]
+fn steps_may_not_pass_the_stop_time() {
+    let fmu = Fmu::new("stop");
+    assert_eq!(fmu.setup(0.0, Some(0.05)), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    for n in 0..5 {
+        assert_eq!(
+            fmu.do_step(f64::from(n) * 0.01, 0.01),
+            Status::Ok,
+            "step {n}"
+        );
+    }
+    assert_eq!(fmu.do_step(0.05, 0.01), Status::Error);
+    assert!(
+        fmu.log.contains("fmi2DoStep: a step of 0.01 from 0.05 ends at 0.060000000000000005, beyond the stop time 0.05"),
+        "{:?}",
+        fmu.log.messages()
+    );
+}
+
+#[test]
+fn discarded_step_reports_terminated_and_last_successful_time() {
+    let fmu = Fmu::with_logging("discard", true);
+    assert_eq!(fmu.setup(0.0, None), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
+    assert_eq!(fmu.do_step(0.01, 0.01), Status::Ok);
+    let x = fmu.real(vr::X);
+    assert_eq!(fmu.terminated_flag(), (Status::Ok, 0));
+    assert_eq!(
+        fmu.set_integer(&[vr::FAIL_MODE], &[fail::DISCARD]),
+        Status::Ok
+    );
+    assert_eq!(fmu.do_step(0.02, 0.01), Status::Discard);
+    assert_eq!(fmu.state(), Some(FmiState::StepFailed));
+    assert_eq!(fmu.terminated_flag(), (Status::Ok, 1));
+    assert_eq!(fmu.last_successful_time(), (Status::Ok, 0.02));
+    assert_eq!(fmu.real(vr::X), x, "a discarded step changes nothing");
+    assert!(fmu.log.records().iter().any(|r| {
+        r.status == 2
+            && r.category == "logStatusDiscard"
+            && r.message
+                .starts_with("fmi2DoStep: step from 0.02 by 0.01 discarded")
+    }));
+    // No further steps; terminate is allowed.
+    assert_eq!(fmu.do_step(0.02, 0.01), Status::Error);
+    let fmu2 = Fmu::initialized("discard2");
+    assert_eq!(
+        fmu2.set_integer(&[vr::FAIL_MODE], &[fail::DISCARD]),
+        Status::Ok
+    );
+    assert_eq!(fmu2.do_step(0.0, 0.01), Status::Discard);
+    assert_eq!(fmu2.terminate(), Status::Ok);
+    assert_eq!(fmu2.state(), Some(FmiState::Terminated));
+}

@@ -1,0 +1,179 @@
+//! Errors of the import side, each naming the file or the function and instance.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::LogRecord;
+use fmi2_md::{MdError, Problem};
+use fmi2_sys::Status;
+
+/// Something went wrong opening, loading or calling an FMU.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// The .fmu file does not exist.
+    #[error("{}: no such file", .path.display())]
+    NotFound {
+        /// The file asked for.
+        path: PathBuf,
+    },
+    /// The file or the unpacked directory could not be read or written.
+    #[error("{}: {source}", .path.display())]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The file is not a zip archive (or a damaged one).
+    #[error("{} is not a zip archive ({detail})", .path.display())]
+    NotZip {
+        /// The .fmu file.
+        path: PathBuf,
+        /// What the zip reader said.
+        detail: String,
+    },
+    /// Unpacking failed.
+    #[error("{}: cannot unpack: {detail}", .path.display())]
+    Unpack {
+        /// The .fmu file.
+        path: PathBuf,
+        /// What the zip reader said.
+        detail: String,
+    },
+    /// The archive has no modelDescription.xml at its root.
+    #[error("{} contains no modelDescription.xml at the archive root", .path.display())]
+    NoModelDescription {
+        /// The .fmu file.
+        path: PathBuf,
+    },
+    /// modelDescription.xml could not be parsed (FMI 1.0, Model Exchange only, malformed...).
+    #[error("{}: {source}", .path.display())]
+    ModelDescription {
+        /// The .fmu file.
+        path: PathBuf,
+        /// The parse error, with its line.
+        source: MdError,
+    },
+    /// modelDescription.xml breaks FMI 2.0 rules.
+    #[error("{}: modelDescription.xml has {} problem(s):{}", .path.display(), .problems.len(), list(.problems))]
+    InvalidModelDescription {
+        /// The .fmu file.
+        path: PathBuf,
+        /// Every problem found.
+        problems: Vec<Problem>,
+    },
+    /// The binary for this platform is missing from the archive.
+    #[error("{}: no binary for this platform ({platform}): expected {expected} inside the archive; {}", .path.display(), has_platforms(.available))]
+    MissingBinary {
+        /// The .fmu file.
+        path: PathBuf,
+        /// The platform folder looked in, e.g. `win64`.
+        platform: &'static str,
+        /// The path inside the archive, e.g. `binaries/linux64/CkcmPlant.so`.
+        expected: String,
+        /// The platform folders the archive does have under `binaries/`, sorted.
+        available: Vec<String>,
+    },
+    /// The shared library could not be loaded.
+    #[error("{}: cannot load the shared library: {source}", .path.display())]
+    Load {
+        /// The unpacked binary.
+        path: PathBuf,
+        /// The loader's error.
+        source: libloading::Error,
+    },
+    /// A required FMI function is not exported by the binary.
+    #[error("{}: missing FMI 2.0 function {symbol}: {source}", .path.display())]
+    MissingSymbol {
+        /// The unpacked binary.
+        path: PathBuf,
+        /// The C name of the function.
+        symbol: &'static str,
+        /// The loader's error.
+        source: libloading::Error,
+    },
+    /// The binary reports another FMI version or types platform than the description.
+    #[error("{}: {function} returned \"{found}\", expected \"{expected}\"", .path.display())]
+    Version {
+        /// The unpacked binary.
+        path: PathBuf,
+        /// `fmi2GetVersion` or `fmi2GetTypesPlatform`.
+        function: &'static str,
+        /// What it returned.
+        found: String,
+        /// What FMI 2.0 requires.
+        expected: &'static str,
+    },
+    /// fmi2Instantiate returned NULL.
+    #[error("fmi2Instantiate failed for instance '{instance}'{}", messages_suffix(.messages))]
+    Instantiate {
+        /// The instance name asked for.
+        instance: String,
+        /// What the FMU logged meanwhile (e.g. its GUID complaint).
+        messages: Vec<LogRecord>,
+    },
+    /// An FMI call returned Discard, Error, Fatal or Pending.
+    #[error("{function} on instance '{instance}' returned {status}{}", messages_suffix(.messages))]
+    Call {
+        /// The C name of the function.
+        function: &'static str,
+        /// The instance name.
+        instance: String,
+        /// The status it returned.
+        status: Status,
+        /// What the FMU logged during the call.
+        messages: Vec<LogRecord>,
+    },
+    /// An FMI call returned an int that is no fmi2Status.
+    #[error("{function} on instance '{instance}' returned {raw}, which is not a valid fmi2Status{}", messages_suffix(.messages))]
+    InvalidStatus {
+        /// The C name of the function.
+        function: &'static str,
+        /// The instance name.
+        instance: String,
+        /// The raw value.
+        raw: i32,
+        /// What the FMU logged during the call.
+        messages: Vec<LogRecord>,
+    },
+    /// The master passed arguments that cannot be forwarded (length mismatch, NUL in a string...).
+    #[error("{function} on instance '{instance}': {message}")]
+    InvalidArgument {
+        /// The C name of the function.
+        function: &'static str,
+        /// The instance name.
+        instance: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// `the archive has binaries for linux64, win64` or says it has none.
+fn has_platforms(available: &[String]) -> String {
+    if available.is_empty() {
+        "the archive has no binaries for any platform".into()
+    } else {
+        format!("the archive has binaries for {}", available.join(", "))
+    }
+}
+
+/// Problems as an indented list, one per line.
+fn list(problems: &[Problem]) -> String {
+    problems.iter().map(|p| format!("\n  - {p}")).collect()
+}
+
+/// `: msg1; msg2` or ` (the FMU logged nothing)`.
+fn messages_suffix(messages: &[LogRecord]) -> String {
+    if messages.is_empty() {
+        return " (the FMU logged nothing)".into();
+    }
+    let mut out = String::from(": ");
+    for (i, m) in messages.iter().enumerate() {
+        if i > 0 {
+            out.push_str("; ");
+        }
+        // Writing into a String cannot fail.
+        let _ = fmt::write(&mut out, format_args!("{m}"));
+    }
+    out
+}

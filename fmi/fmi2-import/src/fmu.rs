@@ -1,0 +1,354 @@
+//! Opening a .fmu: unzip, parse and validate the description, load the binary.
+
+use std::ffi::{CStr, CString};
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::ImportError;
+use crate::extract::ExtractionDir;
+use crate::functions::Functions;
+use crate::instance::Instance;
+use fmi2_md::ModelDescription;
+use fmi2_sys::{FMI_VERSION, TYPES_PLATFORM};
+use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION};
+use libloading::Library;
+
+/// What every instance of an FMU shares. Field order is drop order: the function
+/// pointers go first, then the library is unloaded, then the unpacked files removed.
+#[derive(Debug)]
+pub(crate) struct Loaded {
+    pub(crate) functions: Functions,
+    _library: Library,
+    pub(crate) dir: ExtractionDir,
+}
+
+/// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
+///
+/// Instances keep the library loaded, so they may outlive the `Fmu` they came from.
+#[derive(Debug)]
+pub struct Fmu {
+    path: PathBuf,
+    md: ModelDescription,
+    loaded: Arc<Loaded>,
+}
+
+impl Fmu {
+    /// Opens `path`: unzips it into a temporary directory `fmi2-import-<pid>-*` (removed
+    /// when the last of the `Fmu` and its instances is dropped; see
+    /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
+    /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
+    /// and resolves all 34 FMI 2.0 co-simulation functions.
+    pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
+        let path = path.as_ref().to_path_buf();
+        let file = File::open(&path).map_err(|source| match source.kind() {
+            std::io::ErrorKind::NotFound => ImportError::NotFound { path: path.clone() },
+            _ => ImportError::Io {
+                path: path.clone(),
+                source,
+            },
+        })?;
+        let mut archive = zip::ZipArchive::new(file).map_err(|e| ImportError::NotZip {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
+        if archive.index_for_name("modelDescription.xml").is_none() {
+            return Err(ImportError::NoModelDescription { path });
+        }
+        let dir = ExtractionDir::new().map_err(|source| ImportError::Io {
+            path: std::env::temp_dir(),
+            source,
+        })?;
+        // `extract` refuses entries that would escape the directory (zip-slip).
+        archive
+            .extract(dir.path())
+            .map_err(|e| ImportError::Unpack {
+                path: path.clone(),
+                detail: e.to_string(),
+            })?;
+
+        let md_path = dir.path().join("modelDescription.xml");
+        let md = ModelDescription::from_file(&md_path).map_err(|source| {
+            ImportError::ModelDescription {
+                path: path.clone(),
+                source: source.in_file(Path::new("modelDescription.xml")),
+            }
+        })?;
+        let problems = md.validate();
+        if !problems.is_empty() {
+            return Err(ImportError::InvalidModelDescription { path, problems });
+        }
+        let identifier = md
+            .model_identifier()
+            .ok_or_else(|| ImportError::ModelDescription {
+                path: path.clone(),
+                source: fmi2_md::MdError {
+                    file: Some("modelDescription.xml".into()),
+                    line: None,
+                    kind: Box::new(fmi2_md::MdErrorKind::NoCoSimulation),
+                },
+            })?
+            .to_owned();
+        let relative = format!("binaries/{PLATFORM}/{identifier}.{SHARED_LIBRARY_EXTENSION}");
+        let binary = dir.path().join(&relative);
+        if !binary.is_file() {
+            return Err(ImportError::MissingBinary {
+                path,
+                platform: PLATFORM,
+                expected: relative,
+                available: platforms_in(dir.path()),
+            });
+        }
+        let resources = dir.path().join("resources");
+        std::fs::create_dir_all(&resources).map_err(|source| ImportError::Io {
+            path: resources,
+            source,
+        })?;
+
+        // SAFETY: loading runs the library's initialisers. An FMU binary is code the user
+        // chose to run; that trust is the premise of every FMI master.
+        let library = unsafe { Library::new(&binary) }.map_err(|source| ImportError::Load {
+            path: binary.clone(),
+            source,
+        })?;
+        // SAFETY: the binary declares itself an FMI 2.0 FMU, whose exported functions have
+        // the standard's signatures, which is how `Functions` types them.
+        let functions = unsafe { Functions::load(&library) }.map_err(|(symbol, source)| {
+            ImportError::MissingSymbol {
+                path: binary.clone(),
+                symbol,
+                source,
+            }
+        })?;
+        check_string(
+            &binary,
+            "fmi2GetVersion",
+            functions.fmi2GetVersion,
+            FMI_VERSION,
+        )?;
+        check_string(
+            &binary,
+            "fmi2GetTypesPlatform",
+            functions.fmi2GetTypesPlatform,
+            TYPES_PLATFORM,
+        )?;
+
+        Ok(Fmu {
+            path,
+            md,
+            loaded: Arc::new(Loaded {
+                functions,
+                _library: library,
+                dir,
+            }),
+        })
+    }
+
+    /// The parsed (and valid) model description.
+    pub fn model_description(&self) -> &ModelDescription {
+        &self.md
+    }
+
+    /// The .fmu file this was opened from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The platform folders under `binaries/` in the archive (e.g. `linux64`, `win64`),
+    /// sorted.
+    pub fn platforms(&self) -> Vec<String> {
+        platforms_in(self.loaded.dir.path())
+    }
+
+    /// The directory the archive was unpacked into (removed on drop).
+    pub fn unpacked_dir(&self) -> &Path {
+        self.loaded.dir.path()
+    }
+
+    /// `fmuResourceLocation` for fmi2Instantiate: the `file://` URI of the unpacked
+    /// `resources/` directory, percent-encoded, with a trailing slash.
+    pub fn resource_uri(&self) -> String {
+        file_uri(&self.loaded.dir.path().join("resources"))
+    }
+
+    /// Creates a co-simulation instance (fmi2Instantiate with this description's GUID,
+    /// `visible = false`). A NULL result becomes an error carrying what the FMU logged.
+    pub fn instantiate(
+        &self,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Result<Instance, ImportError> {
+        let invalid = |message: String| ImportError::InvalidArgument {
+            function: "fmi2Instantiate",
+            instance: instance_name.to_owned(),
+            message,
+        };
+        let name = CString::new(instance_name)
+            .map_err(|_| invalid("instance name contains a NUL byte".into()))?;
+        let guid = CString::new(self.md.guid.as_str())
+            .map_err(|_| invalid("GUID contains a NUL byte".into()))?;
+        let resources = CString::new(self.resource_uri())
+            .map_err(|_| invalid("resource URI contains a NUL byte".into()))?;
+        Instance::instantiate(
+            Arc::clone(&self.loaded),
+            name,
+            &guid,
+            &resources,
+            logging_on,
+        )
+    }
+}
+
+/// The folders under `<unpacked>/binaries/`, sorted; none if it is missing.
+fn platforms_in(unpacked: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(unpacked.join("binaries"))
+        .map(|dir| {
+            dir.filter_map(Result::ok)
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// Fails unless the binary's version string function returns `expected`.
+fn check_string(
+    binary: &Path,
+    function: &'static str,
+    f: unsafe extern "C" fn() -> *const std::ffi::c_char,
+    expected: &'static CStr,
+) -> Result<(), ImportError> {
+    // SAFETY: a no-argument FMI function returning a static string (or NULL, handled).
+    let ptr = unsafe { f() };
+    let found = if ptr.is_null() {
+        "NULL".to_owned()
+    } else {
+        // SAFETY: non-null; the standard makes it a NUL-terminated static string.
+        unsafe { CStr::from_ptr(ptr) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    let expected_str = expected.to_str().unwrap_or_default();
+    if found == expected_str {
+        Ok(())
+    } else {
+        Err(ImportError::Version {
+            path: binary.to_path_buf(),
+            function,
+            found,
+            expected: expected_str,
+        })
+    }
+}
+
+/// `file:///abs/path/` with every byte outside RFC 3986's unreserved set (and `/`)
+/// percent-encoded; on Windows `file:///C:/abs/path/`. Hand-written: the workspace has no
+/// URL crate, and this is the whole of what fmuResourceLocation needs.
+pub fn file_uri(dir: &Path) -> String {
+    let absolute = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+    #[cfg(unix)]
+    let uri = unix_file_uri(std::os::unix::ffi::OsStrExt::as_bytes(absolute.as_os_str()));
+    #[cfg(not(unix))]
+    let uri = windows_file_uri(&absolute.to_string_lossy());
+    uri
+}
+
+/// The URI of an absolute Unix path (its bytes).
+#[cfg_attr(not(unix), allow(dead_code))]
+fn unix_file_uri(path: &[u8]) -> String {
+    let mut uri = String::from("file://");
+    percent_encode_into(&mut uri, path);
+    finish_dir_uri(uri)
+}
+
+/// The URI of an absolute Windows path: `C:\x` becomes `file:///C:/x` (the form Windows
+/// FMI tools expect, RFC 8089 with the drive colon kept), a UNC path `\\server\share\x`
+/// becomes `file://server/share/x`. The verbatim prefixes `\\?\` and `\\?\UNC\` (from
+/// `std::fs::canonicalize`) are dropped.
+#[cfg_attr(unix, allow(dead_code))]
+fn windows_file_uri(path: &str) -> String {
+    let path = path.replace('\\', "/");
+    let path = if let Some(unc) = path.strip_prefix("//?/UNC/") {
+        format!("//{unc}")
+    } else if let Some(local) = path.strip_prefix("//?/") {
+        local.to_owned()
+    } else {
+        path
+    };
+    let mut uri = String::from("file://");
+    let bytes = path.as_bytes();
+    if let Some(unc) = path.strip_prefix("//") {
+        // The server name is the URI's authority.
+        percent_encode_into(&mut uri, unc.as_bytes());
+    } else if bytes.len() >= 2 && bytes[0].is_ascii_alphabetic() && bytes[1] == b':' {
+        uri.push('/');
+        uri.push(char::from(bytes[0]));
+        uri.push(':');
+        percent_encode_into(&mut uri, &bytes[2..]);
+    } else {
+        percent_encode_into(&mut uri, bytes);
+    }
+    finish_dir_uri(uri)
+}
+
+/// Appends `bytes`, keeping RFC 3986's unreserved characters and `/`, encoding the rest.
+fn percent_encode_into(uri: &mut String, bytes: &[u8]) {
+    for &b in bytes {
+        if b.is_ascii_alphanumeric() || matches!(b, b'-' | b'.' | b'_' | b'~' | b'/') {
+            uri.push(char::from(b));
+        } else {
+            uri.push_str(&format!("%{b:02X}"));
+        }
+    }
+}
+
+/// A directory URI ends with a slash.
+fn finish_dir_uri(mut uri: String) -> String {
+    if !uri.ends_with('/') {
+        uri.push('/');
+    }
+    uri
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{file_uri, windows_file_uri};
+    use std::path::Path;
+
+    #[test]
+    fn windows_paths_become_drive_and_unc_uris() {
+        assert_eq!(
+            windows_file_uri(r"C:\Users\Jo Doe\AppData\Local\Temp\fmi2-import-x\resources"),
+            "file:///C:/Users/Jo%20Doe/AppData/Local/Temp/fmi2-import-x/resources/"
+        );
+        assert_eq!(windows_file_uri(r"Z:\"), "file:///Z:/");
+        assert_eq!(
+            windows_file_uri(r"\\?\D:\fmu\résumé\"),
+            "file:///D:/fmu/r%C3%A9sum%C3%A9/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\server\share\a#b"),
+            "file://server/share/a%23b/"
+        );
+        assert_eq!(
+            windows_file_uri(r"\\?\UNC\server\share\x"),
+            "file://server/share/x/"
+        );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn file_uri_percent_encodes() {
+        assert_eq!(
+            file_uri(Path::new("/tmp/a b/résumé")),
+            "file:///tmp/a%20b/r%C3%A9sum%C3%A9/"
+        );
+        assert_eq!(
+            file_uri(Path::new("/tmp/x/resources/")),
+            "file:///tmp/x/resources/"
+        );
+        assert_eq!(file_uri(Path::new("/t/100%#?")), "file:///t/100%25%23%3F/");
+    }
+}

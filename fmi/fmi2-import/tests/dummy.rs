@@ -1,0 +1,287 @@
+//! The importer against a real (tiny, C) FMI 2.0 binary: instantiate, log, call, states.
+
+#[path = "support/mod.rs"]
+mod import_support;
+
+use fmi2_import::Status;
+use fmi2_import::{Fmu, ImportError};
+
+fn open() -> (tempfile::TempDir, Fmu) {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = Fmu::open(import_support::dummy_fmu(dir.path())).unwrap();
+    (dir, fmu)
+}
+
+const FORCES: [u32; 6] = [1, 2, 3, 4, 5, 6];
+const XS: [u32; 6] = [11, 12, 13, 14, 15, 16];
+
+#[test]
+fn opens_and_exposes_description_and_resources() {
+    let (_dir, fmu) = open();
+    assert_eq!(fmu.model_description().model_name, "MiniPlatform");
+    let uri = fmu.resource_uri();
+    assert!(
+        uri.starts_with("file:///") && uri.ends_with("/resources/"),
+        "{uri}"
+    );
+    let table = fmu.unpacked_dir().join("resources/table.csv");
+    assert_eq!(std::fs::read_to_string(table).unwrap(), "t,x\n0,1\n");
+}
+
+#[test]
+fn instantiate_passes_guid_and_resource_uri() {
+    let (_dir, fmu) = open();
+    let inst = fmu.instantiate("plant", true).unwrap();
+    assert_eq!(inst.name(), "plant");
+    let log = inst.take_log();
+    assert_eq!(log.len(), 1, "{log:?}");
+    assert_eq!(log[0].status, Status::Ok);
+    assert_eq!(log[0].category, "logAll");
+    assert_eq!(
+        log[0].message,
+        format!("resources at {}", fmu.resource_uri())
+    );
+    assert!(inst.take_log().is_empty(), "take_log drains");
+}
+
+#[test]
+fn wrong_guid_fails_with_the_fmus_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = import_support::MODEL_DESCRIPTION.replacen(
+        "{6f1c3a52-8d0e-4b7a-9e21-3c5d7a1b2f90}",
+        "{00000000-0000-0000-0000-000000000000}",
+        1,
+    );
+    let fmu = Fmu::open(import_support::dummy_fmu_with(dir.path(), &xml)).unwrap();
+    let err = fmu
+        .instantiate("plant", false)
+        .expect_err("instantiation must fail");
+    assert!(matches!(err, ImportError::Instantiate { .. }), "{err:?}");
+    assert_eq!(
+        err.to_string(),
+        "fmi2Instantiate failed for instance 'plant': [fmi2Error] logStatusError: wrong GUID \
+         {00000000-0000-0000-0000-000000000000}, expected {6f1c3a52-8d0e-4b7a-9e21-3c5d7a1b2f90}"
+    );
+}
+
+#[test]
+fn simulation_round_trip() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    inst.take_log();
+    assert_eq!(
+        inst.setup_experiment(Some(1e-6), 0.0, Some(1.0)).unwrap(),
+        Status::Ok
+    );
+    inst.enter_initialization_mode().unwrap();
+    let long = inst.take_log();
+    assert_eq!(long.len(), 1);
+    assert_eq!(
+        long[0].message.len(),
+        "long:".len() + 2000 + ":end".len(),
+        "long messages are not truncated"
+    );
+    assert!(long[0].message.starts_with("long:xxx") && long[0].message.ends_with("xxx:end"));
+    inst.exit_initialization_mode().unwrap();
+
+    inst.set_real(&FORCES, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+        .unwrap();
+    for n in 0..10 {
+        inst.do_step(f64::from(n) * 0.001, 0.001, true).unwrap();
+    }
+    let mut x = [0.0; 6];
+    inst.get_real(&XS, &mut x).unwrap();
+    for (i, xi) in x.iter().enumerate() {
+        let expected = 0.01 * (i as f64 + 1.0);
+        assert!(
+            (xi - expected).abs() < 1e-12,
+            "x[{}] = {xi}, expected {expected}",
+            i + 1
+        );
+    }
+    let mut total = [0.0];
+    inst.get_real(&[25], &mut total).unwrap();
+    assert_eq!(total[0], 9.84);
+    assert!((inst.last_successful_time().unwrap() - 0.01).abs() < 1e-15);
+    assert!(!inst.is_terminated().unwrap());
+
+    inst.set_integer(&[24], &[5]).unwrap();
+    let mut trials = [0];
+    inst.get_integer(&[24], &mut trials).unwrap();
+    assert_eq!(trials, [5]);
+
+    // More booleans than one stack chunk, to cross the chunk boundary.
+    let vrs: Vec<u32> = (0..100).map(|k| k % 32).collect();
+    let values: Vec<bool> = (0..100).map(|k| k % 3 == 0).collect();
+    inst.set_boolean(&vrs[..32], &values[..32]).unwrap();
+    let mut back = vec![false; 100];
+    inst.get_boolean(&vrs, &mut back).unwrap();
+    for k in 0..100 {
+        assert_eq!(back[k], values[k % 32], "bool {k}");
+    }
+
+    assert_eq!(inst.get_string(&[26]).unwrap(), ["mini"]);
+    inst.set_string(&[26], &["hello"]).unwrap();
+    assert_eq!(inst.take_log()[0].message, "string 26 = hello");
+
+    inst.terminate().unwrap();
+    inst.reset().unwrap();
+    assert_eq!(inst.last_successful_time().unwrap(), 0.0);
+}
+
+#[test]
+fn warnings_are_ok_and_logged() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    inst.take_log();
+    assert_eq!(inst.set_real(&[1], &[f64::NAN]).unwrap(), Status::Warning);
+    let log = inst.take_log();
+    assert_eq!(log.len(), 1);
+    assert_eq!(
+        (log[0].status, log[0].message.as_str()),
+        (Status::Warning, "NaN for vr 1 ignored")
+    );
+}
+
+#[test]
+fn errors_name_function_instance_status_and_messages() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("controller", false).unwrap();
+    let err = inst.do_step(0.5, -0.001, true).unwrap_err();
+    match &err {
+        ImportError::Call {
+            function,
+            instance,
+            status,
+            messages,
+        } => {
+            assert_eq!(
+                (*function, instance.as_str(), *status),
+                ("fmi2DoStep", "controller", Status::Error)
+            );
+            assert_eq!(
+                messages.len(),
+                1,
+                "only what was logged during the call: {messages:?}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        err.to_string(),
+        "fmi2DoStep on instance 'controller' returned fmi2Error: [fmi2Error] logStatusError: invalid step size -0.001 at t=0.5"
+    );
+
+    let mut x = [0.0];
+    let err = inst.get_real(&[99], &mut x).unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("fmi2GetReal on instance 'controller' returned fmi2Error"),
+        "{err}"
+    );
+
+    let err = inst.get_integer(&[999], &mut [0]).unwrap_err();
+    assert!(
+        matches!(err, ImportError::InvalidStatus { raw: 7, .. }),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains(
+        "fmi2GetInteger on instance 'controller' returned 7, which is not a valid fmi2Status"
+    ));
+
+    let err = inst
+        .get_directional_derivative(&[11], &[1], &[1.0], &mut [0.0])
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("directional derivatives are not provided"),
+        "{err}"
+    );
+}
+
+#[test]
+fn slice_length_mismatch_is_an_error_not_a_panic() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    let err = inst.set_real(&[1, 2], &[1.0]).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "fmi2SetReal on instance 'plant': 2 value references but 1 values"
+    );
+    assert!(inst.get_real(&[1], &mut [0.0; 2]).is_err());
+    assert!(inst.set_integer(&[1], &[]).is_err());
+    assert!(inst.get_boolean(&[1, 2, 3], &mut [false]).is_err());
+    assert!(inst.set_string(&[26], &["a\0b"]).is_err());
+}
+
+#[test]
+fn fmu_states_get_set_serialize_and_free() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    inst.set_real(&[1], &[1.0]).unwrap();
+    inst.do_step(0.0, 1.0, false).unwrap();
+    let snapshot = inst.get_fmu_state().unwrap();
+    inst.do_step(1.0, 1.0, false).unwrap();
+    let mut x = [0.0];
+    inst.get_real(&[11], &mut x).unwrap();
+    assert_eq!(x[0], 2.0);
+
+    inst.set_fmu_state(&snapshot).unwrap();
+    inst.get_real(&[11], &mut x).unwrap();
+    assert_eq!(x[0], 1.0);
+    assert_eq!(inst.last_successful_time().unwrap(), 1.0);
+
+    let bytes = inst.serialize_fmu_state(&snapshot).unwrap();
+    inst.do_step(1.0, 5.0, false).unwrap();
+    let restored = inst.deserialize_fmu_state(&bytes).unwrap();
+    inst.set_fmu_state(&restored).unwrap();
+    inst.get_real(&[11], &mut x).unwrap();
+    assert_eq!(x[0], 1.0);
+
+    let err = inst.deserialize_fmu_state(&bytes[1..]).unwrap_err();
+    assert!(err.to_string().contains("serialized state has"), "{err}");
+
+    // The dummy counts freed states in Integer vr 30.
+    let mut freed = [0];
+    inst.get_integer(&[30], &mut freed).unwrap();
+    let before = freed[0];
+    drop(snapshot);
+    drop(restored);
+    inst.get_integer(&[30], &mut freed).unwrap();
+    assert_eq!(
+        freed[0],
+        before + 2,
+        "fmi2FreeFMUstate ran for each dropped state"
+    );
+}
+
+#[test]
+fn states_are_bound_to_their_instance_and_may_outlive_it() {
+    let (_dir, fmu) = open();
+    let mut a = fmu.instantiate("a", false).unwrap();
+    let mut b = fmu.instantiate("b", false).unwrap();
+    let state_a = a.get_fmu_state().unwrap();
+    let err = b.set_fmu_state(&state_a).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "fmi2SetFMUstate on instance 'b': the FMU state belongs to instance 'a'"
+    );
+    drop(a);
+    // Freed against the still-live component; FreeInstance follows.
+    drop(state_a);
+}
+
+#[test]
+fn instances_outlive_the_fmu_handle() {
+    let (_dir, fmu) = open();
+    let unpacked = fmu.unpacked_dir().to_path_buf();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    drop(fmu);
+    assert!(unpacked.exists(), "files stay while an instance lives");
+    inst.do_step(0.0, 0.001, false).unwrap();
+    drop(inst);
+    assert!(
+        !unpacked.exists(),
+        "the temporary directory is removed with the last user"
+    );
+}

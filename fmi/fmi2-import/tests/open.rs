@@ -1,0 +1,251 @@
+//! `Fmu::open` errors that need no working FMU binary: each names the file and the problem.
+
+use std::path::{Path, PathBuf};
+
+use fmi2_import::{Fmu, ImportError, PLATFORM, SHARED_LIBRARY_EXTENSION};
+use fmi2_md::MdErrorKind;
+use fmu_build::write_fmu;
+
+const VALID: &str = include_str!("../../fmi2-md/tests/fixtures/valid.xml");
+
+fn temp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn open_err(path: &Path) -> ImportError {
+    match Fmu::open(path) {
+        Ok(_) => panic!("{} opened", path.display()),
+        Err(e) => e,
+    }
+}
+
+/// An archive with this description, no binary.
+fn fmu_with(dir: &Path, xml: &str) -> PathBuf {
+    let path = dir.join("Model.fmu");
+    write_fmu(&path, xml, None, &[]).unwrap();
+    path
+}
+
+#[test]
+fn missing_file_is_named() {
+    let err = open_err(Path::new("/nonexistent/Missing.fmu"));
+    assert!(matches!(err, ImportError::NotFound { .. }), "{err:?}");
+    assert_eq!(err.to_string(), "/nonexistent/Missing.fmu: no such file");
+}
+
+#[test]
+fn not_a_zip() {
+    let dir = temp();
+    let path = dir.path().join("Text.fmu");
+    std::fs::write(&path, "this is not a zip archive at all").unwrap();
+    let err = open_err(&path);
+    assert!(matches!(err, ImportError::NotZip { .. }), "{err:?}");
+    assert!(
+        err.to_string()
+            .starts_with(&format!("{} is not a zip archive", path.display())),
+        "{err}"
+    );
+}
+
+#[test]
+fn zip_without_model_description() {
+    let dir = temp();
+    let path = dir.path().join("Empty.fmu");
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+    zip.start_file(
+        "documentation/index.html",
+        zip::write::SimpleFileOptions::default(),
+    )
+    .unwrap();
+    std::io::Write::write_all(&mut zip, b"<html/>").unwrap();
+    zip.finish().unwrap();
+    let err = open_err(&path);
+    assert!(
+        matches!(err, ImportError::NoModelDescription { .. }),
+        "{err:?}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{} contains no modelDescription.xml at the archive root",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn fmi1_description() {
+    let dir = temp();
+    let path = fmu_with(
+        dir.path(),
+        &VALID.replacen("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\"", 1),
+    );
+    let err = open_err(&path);
+    match &err {
+        ImportError::ModelDescription { source, .. } => {
+            assert_eq!(*source.kind, MdErrorKind::Fmi1("1.0".into()))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{}: modelDescription.xml:3: FMI 1.0 model descriptions are not supported (fmiVersion=\"1.0\")",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn model_exchange_only_description() {
+    let dir = temp();
+    let path = fmu_with(
+        dir.path(),
+        &VALID.replacen("<CoSimulation", "<ModelExchange", 1),
+    );
+    let err = open_err(&path);
+    assert!(
+        err.to_string()
+            .ends_with("no <CoSimulation> element: this FMU is Model Exchange only"),
+        "{err}"
+    );
+}
+
+#[test]
+fn malformed_description_reports_its_line() {
+    let dir = temp();
+    let path = fmu_with(
+        dir.path(),
+        &VALID.replacen("</ModelVariables>", "</ModelVariable>", 1),
+    );
+    let err = open_err(&path);
+    let line = VALID
+        .lines()
+        .position(|l| l.contains("</ModelVariables>"))
+        .unwrap()
+        + 1;
+    let text = err.to_string();
+    assert!(
+        text.starts_with(&format!(
+            "{}: modelDescription.xml:{line}: malformed XML",
+            path.display()
+        )),
+        "{text}"
+    );
+}
+
+#[test]
+fn invalid_description_lists_every_problem() {
+    let dir = temp();
+    let xml = VALID
+        .replacen("2026-11-23T12:00:00Z", "yesterday", 1)
+        .replacen("stepSize=\"0.001\"", "stepSize=\"0\"", 1);
+    let err = open_err(&fmu_with(dir.path(), &xml));
+    match &err {
+        ImportError::InvalidModelDescription { problems, .. } => {
+            assert_eq!(problems.len(), 2, "{problems:#?}")
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = err.to_string();
+    assert!(
+        text.contains("modelDescription.xml has 2 problem(s):"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n  - fmiModelDescription: generationDateAndTime 'yesterday'"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n  - DefaultExperiment: stepSize must be > 0, is 0"),
+        "{text}"
+    );
+}
+
+#[test]
+fn missing_binary_names_the_expected_path() {
+    let dir = temp();
+    let err = open_err(&fmu_with(dir.path(), VALID));
+    assert!(matches!(err, ImportError::MissingBinary { .. }), "{err:?}");
+    let expected = format!("binaries/{PLATFORM}/MiniPlatform.{SHARED_LIBRARY_EXTENSION}");
+    assert!(
+        err.to_string().ends_with(&format!(
+            "no binary for this platform ({PLATFORM}): expected {expected} inside the archive; \
+             the archive has no binaries for any platform"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_binary_lists_the_platforms_the_archive_has() {
+    let dir = temp();
+    let path = dir.path().join("Elsewhere.fmu");
+    write_fmu(
+        &path,
+        VALID,
+        None,
+        &[
+            ("binaries/win32/MiniPlatform.dll", b"MZ"),
+            ("binaries/darwin64/MiniPlatform.dylib", b"x"),
+        ],
+    )
+    .unwrap();
+    let err = open_err(&path);
+    assert!(
+        matches!(&err, ImportError::MissingBinary { platform, available, .. }
+            if *platform == PLATFORM && available == &["darwin64", "win32"]),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().ends_with(&format!(
+            "expected binaries/{PLATFORM}/MiniPlatform.{SHARED_LIBRARY_EXTENSION} inside the \
+             archive; the archive has binaries for darwin64, win32"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn binary_that_is_not_a_library_fails_to_load() {
+    let dir = temp();
+    let fake = dir.path().join("fake.so");
+    std::fs::write(&fake, b"not an ELF file").unwrap();
+    let path = dir.path().join("Fake.fmu");
+    write_fmu(&path, VALID, Some(&fake), &[("resources/data.txt", b"x")]).unwrap();
+    let err = open_err(&path);
+    assert!(matches!(err, ImportError::Load { .. }), "{err:?}");
+    assert!(
+        err.to_string()
+            .contains(&format!("binaries/{PLATFORM}/MiniPlatform.so: cannot load")),
+        "{err}"
+    );
+}
+
+#[test]
+fn library_without_fmi_functions_names_the_first_missing_symbol() {
+    // Any shared library without FMI exports will do: the C runtime's libm is always present.
+    let Some(libm) = [
+        "/lib/x86_64-linux-gnu/libm.so.6",
+        "/usr/lib/x86_64-linux-gnu/libm.so.6",
+        "/lib64/libm.so.6",
+    ]
+    .iter()
+    .map(Path::new)
+    .find(|p| p.exists()) else {
+        panic!("no libm.so.6 found to stand in for a non-FMU library");
+    };
+    let dir = temp();
+    let path = dir.path().join("Libm.fmu");
+    write_fmu(&path, VALID, Some(libm), &[]).unwrap();
+    let err = open_err(&path);
+    match &err {
+        ImportError::MissingSymbol { symbol, .. } => assert_eq!(*symbol, "fmi2GetTypesPlatform"),
+        other => panic!("{other:?}"),
+    }
+    assert!(
+        err.to_string()
+            .contains("missing FMI 2.0 function fmi2GetTypesPlatform"),
+        "{err}"
+    );
+}

@@ -1,0 +1,230 @@
+//! The version-neutral core of an FMU (the role of Reference-FMUs' `model.h`): the safe
+//! [`Model`] trait an FMU crate implements, its variable table ([`VarSpec`]), the flat value
+//! storage and the byte format of a model's saved state ([`values`]).
+//!
+//! Nothing here knows a C ABI, a calling sequence or an FMI version's status codes: the export
+//! crate (`fmi2-export` today; an FMI 3.0 one could sit beside it) owns those, and a model only
+//! sees validated calls: value references it declared, of the right type, set only in states
+//! where their causality/variability allows it. The variable vocabulary (causality,
+//! variability, base type) is the model description's, which owns it.
+
+#![forbid(unsafe_code)]
+
+pub mod values;
+
+pub use fmi2_md::{Causality, VarType, Variability};
+
+/// One scalar variable of the model, generated from `modelDescription/<Model>.xml`
+/// by the FMU crate's build script so the two never drift apart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VarSpec {
+    /// Full scalar name, e.g. `force[3]`.
+    pub name: &'static str,
+    pub value_reference: u32,
+    pub var_type: VarType,
+    pub causality: Causality,
+    pub variability: Variability,
+    /// Smallest allowed value (`min` of the model description, for Real, Integer and
+    /// Enumeration); the glue refuses anything below it on set and at initialization.
+    pub min: Option<f64>,
+    /// Largest allowed value (`max`), enforced like `min`.
+    pub max: Option<f64>,
+}
+
+/// The first variable of `M` whose current value lies outside its declared range, as the
+/// message of [`VarSpec::check_range`]. The glue calls it where values arrive without a
+/// set call: at fmi2ExitInitializationMode and on fmi2DeSerializeFMUstate.
+pub fn check_ranges<M: Model>(model: &M) -> Result<(), String> {
+    for spec in M::VARIABLES {
+        let value = match spec.var_type {
+            VarType::Real => model.get_real(spec.value_reference),
+            VarType::Integer | VarType::Enumeration => {
+                f64::from(model.get_integer(spec.value_reference))
+            }
+            VarType::Boolean | VarType::String => continue,
+        };
+        spec.check_range(value)?;
+    }
+    Ok(())
+}
+
+impl VarSpec {
+    /// Checks `value` against this variable's declared range; NaN is never inside a
+    /// declared range. The message names the variable, the value and the range.
+    pub fn check_range(&self, value: f64) -> Result<(), String> {
+        if self.min.is_none() && self.max.is_none() {
+            return Ok(());
+        }
+        let below = self.min.is_some_and(|lo| value < lo);
+        let above = self.max.is_some_and(|hi| value > hi);
+        if value.is_nan() || below || above {
+            let bound =
+                |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
+            return Err(format!(
+                "{} = {value} is outside its range [{}, {}]",
+                self.name,
+                bound(self.min, "-inf"),
+                bound(self.max, "inf")
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// How a model operation failed; the export glue maps it onto its FMI version's status.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// The step was not taken and the state is unchanged; the master may retry smaller or
+    /// stop (fmi2Discard).
+    Discard,
+    /// The operation failed; the instance cannot continue without a reset or an earlier
+    /// state (fmi2Error).
+    Error,
+}
+
+/// A model-level failure. The glue logs `message` (prefixed with the function name
+/// and the instance) and returns the status of `severity` to the master.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub severity: Severity,
+    pub message: String,
+}
+
+impl ModelError {
+    /// An error with the given message.
+    pub fn error(message: impl Into<String>) -> Self {
+        Self {
+            severity: Severity::Error,
+            message: message.into(),
+        }
+    }
+
+    /// A discard with the given message (the step was not taken; the master may retry smaller).
+    pub fn discard(message: impl Into<String>) -> Self {
+        Self {
+            severity: Severity::Discard,
+            message: message.into(),
+        }
+    }
+}
+
+/// Result of a model operation.
+pub type ModelResult<T> = Result<T, ModelError>;
+
+/// A co-simulation model behind the FMI 2.0 C ABI.
+///
+/// `Clone` backs fmi2GetFMUstate/fmi2SetFMUstate; `save`/`restore` back the
+/// serialized form (the glue adds a versioned, self-identifying header around it).
+pub trait Model: Clone + Send + 'static {
+    /// `modelIdentifier` of the CoSimulation element.
+    const MODEL_IDENTIFIER: &'static str;
+    /// `guid` attribute of the model description; Instantiate rejects any other.
+    const GUID: &'static str;
+    /// Every scalar variable, from the model description.
+    const VARIABLES: &'static [VarSpec];
+    /// Whether the model accepts a different communication step size on each doStep.
+    const CAN_HANDLE_VARIABLE_STEP: bool;
+
+    /// A model with every variable at its start value.
+    fn new() -> Self;
+
+    /// Reads a Real (only called with a declared Real value reference).
+    fn get_real(&self, vr: u32) -> f64;
+    /// Writes a Real (only called where its causality/variability allows it in the current
+    /// state). Rejects invalid values, e.g. non-finite inputs, with a message naming the variable.
+    fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()>;
+
+    /// Reads an Integer or Enumeration.
+    fn get_integer(&self, vr: u32) -> i32 {
+        let _ = vr;
+        0
+    }
+    /// Writes an Integer or Enumeration.
+    fn set_integer(&mut self, vr: u32, value: i32) -> ModelResult<()> {
+        let _ = value;
+        Err(ModelError::error(format!(
+            "value reference {vr} is not a settable Integer"
+        )))
+    }
+    /// Reads a Boolean.
+    fn get_boolean(&self, vr: u32) -> bool {
+        let _ = vr;
+        false
+    }
+    /// Writes a Boolean.
+    fn set_boolean(&mut self, vr: u32, value: bool) -> ModelResult<()> {
+        let _ = value;
+        Err(ModelError::error(format!(
+            "value reference {vr} is not a settable Boolean"
+        )))
+    }
+
+    /// Called by fmi2ExitInitializationMode at `start_time`: validate parameters, build
+    /// the internal state, and make every output consistent with the inputs at that time.
+    ///
+    /// Must be idempotent and re-callable: in InitializationMode the glue calls it again
+    /// before a get whenever a variable was set since the last call (so outputs read
+    /// during initialization are consistent), and always once more at
+    /// fmi2ExitInitializationMode. Each call rebuilds the state from the current
+    /// parameters and inputs, never from the previous call's result.
+    fn initialize(&mut self, start_time: f64) -> ModelResult<()>;
+
+    /// Advances from `t` (the communication point, exactly as the master passed it) by `h > 0`.
+    fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()>;
+
+    /// Appends the complete dynamic state (parameters included) as plain bytes, pointer-free.
+    fn save(&self, out: &mut Vec<u8>);
+    /// Rebuilds the state written by `save` (the glue has checked header, model and version).
+    fn restore(&mut self, bytes: &[u8]) -> ModelResult<()>;
+}
+
+/// The part of an `impl Model` that every FMU here writes the same way, for a model that keeps
+/// all its variables in a [`values::Values`] field: the four constants from the generated table
+/// module and the typed getters and setters.
+///
+/// ```ignore
+/// impl Model for MyModel {
+///     fmu_core::values_model!(md, values); // the generated `md` module, the `Values` field
+///     fn new() -> Self { … }
+///     // initialize, do_step, save, restore
+/// }
+/// ```
+///
+/// A Real that is not finite is refused with an error naming the variable (no model here has a
+/// use for NaN or infinities, and they would poison every later step); Integers and Booleans
+/// are stored as given, the glue having checked type, settability and declared range.
+#[macro_export]
+macro_rules! values_model {
+    ($md:ident, $values:ident) => {
+        const MODEL_IDENTIFIER: &'static str = $md::MODEL_IDENTIFIER;
+        const GUID: &'static str = $md::GUID;
+        const VARIABLES: &'static [$crate::VarSpec] = $md::VARIABLES;
+        const CAN_HANDLE_VARIABLE_STEP: bool = $md::CAN_HANDLE_VARIABLE_STEP;
+
+        fn get_real(&self, vr: u32) -> f64 {
+            self.$values.real(vr)
+        }
+
+        fn set_real(&mut self, vr: u32, value: f64) -> $crate::ModelResult<()> {
+            self.$values.set_finite_real($md::VARIABLES, vr, value)
+        }
+
+        fn get_integer(&self, vr: u32) -> i32 {
+            self.$values.integer(vr)
+        }
+
+        fn set_integer(&mut self, vr: u32, value: i32) -> $crate::ModelResult<()> {
+            self.$values.set_integer(vr, value);
+            Ok(())
+        }
+
+        fn get_boolean(&self, vr: u32) -> bool {
+            self.$values.boolean(vr)
+        }
+
+        fn set_boolean(&mut self, vr: u32, value: bool) -> $crate::ModelResult<()> {
+            self.$values.set_boolean(vr, value);
+            Ok(())
+        }
+    };
+}
