@@ -37,7 +37,7 @@ from master import HlcsMaster, default_fmu_dir  # noqa: E402
 TRIAL_SECONDS = 15.0
 
 #: The fmpy master should be at least this many times slower than the orchestrator.
-TARGET_RATIO = 10.0
+TARGET_RATIO = 12.0
 
 SCENARIO = """\
 step_size = 0.001
