@@ -113,7 +113,8 @@ def time_orchestrator_cli(binary: Path, fmu_dir: Path, repeats: int, extra: int)
         )
 
         def wall(trials: int) -> float:
-            cmd = [str(binary), "run", str(scenario), "--trials", str(trials), "--out", tmp + "/out"]
+            # --force: every run reuses the folder, which a finished campaign occupies.
+            cmd = [str(binary), "run", str(scenario), "--trials", str(trials), "--out", tmp + "/out", "--force"]
             started = time.perf_counter()
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             return time.perf_counter() - started
