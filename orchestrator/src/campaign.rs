@@ -740,3 +740,107 @@ pub fn read_summary(path: &Path) -> Result<Vec<TrialSummary>, String> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmi2_md::ModelDescription;
+
+    /// A two-FMU scenario over the shipped model descriptions (no FMU is opened), with the
+    /// metrics of `scenarios/line-hlcs.toml` and the given start time.
+    fn scenario(start_time: f64) -> Scenario {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let text = format!(
+            r#"
+start_time = {start_time}
+step_size = 0.001
+stop_time = {stop}
+[[fmu]]
+name = "controller"
+path = "HlcsController.fmu"
+[[fmu]]
+name = "plant"
+path = "CkcmPlant.fmu"
+[metrics]
+reference = "controller.length_ref"
+length = "plant.length_true"
+rho = 5.0
+pose = "plant.pose"
+trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
+"#,
+            stop = start_time + 1.0
+        );
+        Scenario::parse(&text, Path::new("s.toml"), |path| {
+            let xml = root
+                .join("modelDescription")
+                .join(path.with_extension("xml"));
+            ModelDescription::from_file(&xml).map_err(|e| e.to_string())
+        })
+        .unwrap()
+    }
+
+    /// Errors that grow along the trial and positions 1 mm off the line, sampled from
+    /// `start_time`.
+    fn signals(start_time: f64) -> TrialSignals {
+        let n = 200;
+        let time: Vec<f64> = (0..n).map(|k| start_time + k as f64 * 1e-3).collect();
+        let error = std::array::from_fn(|leg| {
+            (0..n)
+                .map(|k| 1e-4 * (1.0 + leg as f64) * (k as f64 / n as f64))
+                .collect()
+        });
+        let line = ckcm::Trajectory::line(0.5);
+        let position = (0..n)
+            .map(|k| {
+                let p = line.sample(k as f64 * 1e-3).pose.p_world;
+                [p.x + 1e-3, p.y, p.z]
+            })
+            .collect();
+        TrialSignals {
+            time,
+            error,
+            position,
+        }
+    }
+
+    /// The λ-norm weights time since the start of the trial, so the same errors give the same
+    /// metrics whatever the scenario's start time; the path error is computed when positions
+    /// were recorded (1 mm off the line here).
+    #[test]
+    fn metrics_are_timed_from_the_trial_start_and_include_the_path() {
+        let at_zero = TrialSummary::compute(3, &scenario(0.0), &signals(0.0));
+        let later = TrialSummary::compute(3, &scenario(100.0), &signals(100.0));
+        for (a, b) in at_zero.legs.per_leg.iter().zip(&later.legs.per_leg) {
+            assert!(
+                (a.lambda - b.lambda).abs() <= 1e-12 * a.lambda,
+                "{a:?} {b:?}"
+            );
+            assert_eq!(a.max, b.max);
+        }
+        // With ρ = 5 /s the weight matters: the λ-norm is below the maximum.
+        assert!(at_zero.legs.overall.lambda < 0.9 * at_zero.legs.overall.max);
+        let path = at_zero.path.expect("positions were recorded");
+        assert!((path.max - 1e-3).abs() < 1e-12 && (path.rms - 1e-3).abs() < 1e-12);
+        assert_eq!(at_zero.trial, 3);
+    }
+
+    /// `summary.csv` rows read back into the same summary, path statistics included.
+    #[test]
+    fn summary_rows_round_trip() {
+        let s = TrialSummary::compute(7, &scenario(0.0), &signals(0.0));
+        let row = s.to_row();
+        assert_eq!(row.len(), summary_header().len());
+        assert_eq!(TrialSummary::from_row(&row), Some(s));
+        let no_path = TrialSummary { path: None, ..s };
+        assert_eq!(TrialSummary::from_row(&no_path.to_row()), Some(no_path));
+    }
+
+    /// The published FNV-1a 64-bit test vectors (offset basis 0xcbf29ce484222325).
+    #[test]
+    fn fnv1a_matches_the_reference_vectors() {
+        let basis = 0xcbf2_9ce4_8422_2325;
+        assert_eq!(fnv1a(basis, b""), basis);
+        assert_eq!(fnv1a(basis, b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(basis, b"foobar"), 0x8594_4171_f739_67e8);
+    }
+}

@@ -491,7 +491,7 @@ impl<'s> Master<'s> {
                 inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
                     .map_err(|source| MasterError::Call {
                         trial,
-                        time: t + h,
+                        time: sc.time(n + 1),
                         fmu: sc.fmus[k].name.clone(),
                         what: "fmi2GetReal",
                         source: Box::new(source),

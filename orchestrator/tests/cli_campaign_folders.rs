@@ -265,6 +265,29 @@ fn a_corrupted_memory_file_is_refused_on_resume() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// `--resume` continues only the campaign of the same scenario (and FMUs): a folder started
+/// from another scenario text is refused, naming the folder, and left as it was.
+#[test]
+fn resume_refuses_a_folder_of_a_different_scenario() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let before = tree(&out);
+
+    let changed = scenario(tmp.path(), "start_time = 0.0");
+    let o = run(&changed, &out, &["--resume"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("different scenario"), "{err}");
+    assert!(err.contains(&out.display().to_string()), "{err}");
+    assert_eq!(tree(&out), before, "a refused resume changed the folder");
+
+    let same = scenario(tmp.path(), "");
+    let o = run(&same, &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// Kills the campaign (abort: no destructor, no clean-up, like SIGKILL) at every file
 /// operation in turn, then resumes it (itself killed once more on the way when that is
 /// possible): each folder ends byte-identical to an uninterrupted run, without temporary or

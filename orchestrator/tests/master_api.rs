@@ -115,3 +115,64 @@ to = "controller.memory"
         &memory[..12]
     );
 }
+
+/// Compiles the importer's C test FMU (MiniPlatform) so that its fmi2GetReal fails once its
+/// time reaches 2.5 ms, and packages it into `dir`.
+fn mini_platform_failing_get(dir: &Path) -> std::path::PathBuf {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fmi");
+    let lib = dir.join("libMiniPlatform.so");
+    let cc = std::env::var_os("CC").unwrap_or_else(|| "cc".into());
+    let status = std::process::Command::new(&cc)
+        .args([
+            "-shared",
+            "-fPIC",
+            "-fvisibility=hidden",
+            "-DFAIL_GET_REAL_FROM=0.0025",
+            "-o",
+        ])
+        .arg(&lib)
+        .arg(fixtures.join("fmi2-import/tests/fixtures/dummy_fmu.c"))
+        .arg("-lm")
+        .status()
+        .unwrap_or_else(|e| panic!("cannot run the C compiler {cc:?}: {e}"));
+    assert!(status.success(), "compiling the test FMU failed");
+    let xml = std::fs::read_to_string(fixtures.join("fmi2-md/tests/fixtures/valid.xml")).unwrap();
+    let fmu = dir.join("MiniPlatform.fmu");
+    fmu_build::write_fmu(&fmu, &xml, Some(&lib), &[]).unwrap();
+    fmu
+}
+
+/// An FMU whose fmi2GetReal fails right after a successful step: the error names the call and
+/// the time the step reached, t₃ = 3 ms (computed from the step index, as every time is).
+#[test]
+fn a_failing_get_after_a_step_names_the_time_the_step_reached() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = mini_platform_failing_get(dir.path());
+    let text = format!(
+        r#"
+step_size = 0.001
+stop_time = 0.01
+trials = 1
+
+[[fmu]]
+name = "mini"
+path = "{}"
+
+[record]
+variables = ["mini.x"]
+"#,
+        fmu.display()
+    );
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("mini.toml")).unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+    let mut signals = master.new_signals();
+    let err = master
+        .run_trial(0, None, &mut signals, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("trial 0, t = 0.003 s: fmi2GetReal of FMU \"mini\" failed"),
+        "{err}"
+    );
+    assert!(err.contains("GetReal refused at t=0.003"), "{err}");
+}

@@ -1,0 +1,88 @@
+//! The controller model through the safe `fmu_core::Model` trait, for what the FMU-level tests
+//! do not reach: a start time other than zero, and the model's own refusal of a bad duration
+//! (the glue's declared range stops it first; the model must not rely on that).
+
+use ckcm::{Mechanism, Params, Trajectory};
+use fmu_core::Model;
+use hlcs_controller::HlcsController;
+use hlcs_controller::md::VARIABLES;
+use hlcs_controller::md::enums::TRAJECTORY_CIRCLE;
+
+fn vr(name: &str) -> u32 {
+    VARIABLES
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("HlcsController has no variable {name}"))
+        .value_reference
+}
+
+fn array(base: &str) -> [u32; 6] {
+    std::array::from_fn(|i| vr(&format!("{base}[{}]", i + 1)))
+}
+
+const H: f64 = 1e-3;
+
+/// Force and length reference over `steps` samples of the circle, started at `t0`, with the
+/// measured lengths 1 mm short of the reference (the same inputs whatever `t0`).
+fn run(t0: f64, steps: u32) -> Vec<[f64; 12]> {
+    let mech = Mechanism::new(Params::default()).unwrap();
+    let circle = Trajectory::circle(mech.params.geometry.home_height);
+    let (length, velocity, memory) = (array("length"), array("velocity"), array("memory"));
+    let (force, length_ref) = (array("force"), array("length_ref"));
+    let mut c = HlcsController::new();
+    c.set_integer(vr("trajectory"), TRAJECTORY_CIRCLE).unwrap();
+    c.set_boolean(vr("learning"), true).unwrap();
+    c.initialize(t0).unwrap();
+    let mut out = Vec::new();
+    for n in 0..steps {
+        let tau = f64::from(n) * H;
+        let legs = mech.inverse_kinematics(&circle.sample(tau).pose);
+        for i in 0..6 {
+            c.set_real(length[i], legs.length[i] - 1e-3).unwrap();
+            c.set_real(velocity[i], 0.0).unwrap();
+            c.set_real(memory[i], 5.0).unwrap();
+        }
+        c.do_step(t0 + f64::from(n) * H, H).unwrap();
+        let mut y = [0.0; 12];
+        for i in 0..6 {
+            y[i] = c.get_real(force[i]);
+            y[6 + i] = c.get_real(length_ref[i]);
+        }
+        out.push(y);
+    }
+    out
+}
+
+/// The trajectory is timed from the start time: a run started at t = 2.5 s sees, at
+/// 2.5 s + τ, what a run started at 0 sees at τ (to rounding of the time sums: t₀ + n·h − t₀
+/// is n·h only to a few ulps).
+#[test]
+fn the_trajectory_is_timed_from_the_start_time() {
+    let steps = 800;
+    let (a, b) = (run(0.0, steps), run(2.5, steps));
+    for (n, (ya, yb)) in a.iter().zip(&b).enumerate() {
+        for k in 0..12 {
+            let scale = ya[k].abs().max(1e-3);
+            assert!(
+                (ya[k] - yb[k]).abs() <= 1e-9 * scale,
+                "sample {n}, output {k}: {} from t0 = 0 against {} from t0 = 2.5",
+                ya[k],
+                yb[k]
+            );
+        }
+    }
+    // The circle moves: the comparison is not between constants.
+    assert!((a[0][6] - a[steps as usize - 1][6]).abs() > 1e-4);
+}
+
+/// A duration that is not positive is refused by the model at initialization, with its name,
+/// even when set past the glue (whose declared minimum would refuse it first).
+#[test]
+fn a_duration_that_is_not_positive_is_refused_by_the_model() {
+    for duration in [0.0, -1.0] {
+        let mut c = HlcsController::new();
+        c.set_real(vr("duration"), duration).unwrap();
+        let e = c.initialize(0.0).unwrap_err();
+        assert!(e.message.contains("duration"), "{}", e.message);
+    }
+}
