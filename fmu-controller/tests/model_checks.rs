@@ -5,20 +5,8 @@
 use ckcm::{Mechanism, Params, Trajectory};
 use fmu_core::Model;
 use hlcs_controller::HlcsController;
-use hlcs_controller::md::VARIABLES;
 use hlcs_controller::md::enums::TRAJECTORY_CIRCLE;
-
-fn vr(name: &str) -> u32 {
-    VARIABLES
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("HlcsController has no variable {name}"))
-        .value_reference
-}
-
-fn array(base: &str) -> [u32; 6] {
-    std::array::from_fn(|i| vr(&format!("{base}[{}]", i + 1)))
-}
+use hlcs_controller::md::vr;
 
 const H: f64 = 1e-3;
 
@@ -27,11 +15,49 @@ const H: f64 = 1e-3;
 fn run(t0: f64, steps: u32) -> Vec<[f64; 12]> {
     let mech = Mechanism::new(Params::default()).unwrap();
     let circle = Trajectory::circle(mech.params.geometry.home_height);
-    let (length, velocity, memory) = (array("length"), array("velocity"), array("memory"));
-    let (force, length_ref) = (array("force"), array("length_ref"));
+    let length = [
+        vr::LENGTH_1,
+        vr::LENGTH_2,
+        vr::LENGTH_3,
+        vr::LENGTH_4,
+        vr::LENGTH_5,
+        vr::LENGTH_6,
+    ];
+    let velocity = [
+        vr::VELOCITY_1,
+        vr::VELOCITY_2,
+        vr::VELOCITY_3,
+        vr::VELOCITY_4,
+        vr::VELOCITY_5,
+        vr::VELOCITY_6,
+    ];
+    let memory = [
+        vr::MEMORY_1,
+        vr::MEMORY_2,
+        vr::MEMORY_3,
+        vr::MEMORY_4,
+        vr::MEMORY_5,
+        vr::MEMORY_6,
+    ];
+    let force = [
+        vr::FORCE_1,
+        vr::FORCE_2,
+        vr::FORCE_3,
+        vr::FORCE_4,
+        vr::FORCE_5,
+        vr::FORCE_6,
+    ];
+    let length_ref = [
+        vr::LENGTH_REF_1,
+        vr::LENGTH_REF_2,
+        vr::LENGTH_REF_3,
+        vr::LENGTH_REF_4,
+        vr::LENGTH_REF_5,
+        vr::LENGTH_REF_6,
+    ];
     let mut c = HlcsController::new();
-    c.set_integer(vr("trajectory"), TRAJECTORY_CIRCLE).unwrap();
-    c.set_boolean(vr("learning"), true).unwrap();
+    c.set_integer(vr::TRAJECTORY, TRAJECTORY_CIRCLE).unwrap();
+    c.set_boolean(vr::LEARNING, true).unwrap();
     c.initialize(t0).unwrap();
     let mut out = Vec::new();
     for n in 0..steps {
@@ -81,7 +107,7 @@ fn the_trajectory_is_timed_from_the_start_time() {
 fn a_duration_that_is_not_positive_is_refused_by_the_model() {
     for duration in [0.0, -1.0] {
         let mut c = HlcsController::new();
-        c.set_real(vr("duration"), duration).unwrap();
+        c.set_real(vr::DURATION, duration).unwrap();
         let e = c.initialize(0.0).unwrap_err();
         assert!(e.message.contains("duration"), "{}", e.message);
     }

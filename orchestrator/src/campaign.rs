@@ -516,7 +516,11 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
                 || (sub.ends_with("trials")
                     && text
                         .strip_prefix("trial_")
-                        .and_then(|r| r.strip_suffix(".csv").or(r.strip_suffix(".parquet")))
+                        .and_then(|r| {
+                            RecordFormat::ALL.iter().find_map(|f| {
+                                r.strip_suffix(f.exporter().extension())?.strip_suffix('.')
+                            })
+                        })
                         .and_then(|n| n.parse::<usize>().ok())
                         .is_some_and(|k| k >= completed));
             if stale {
