@@ -25,6 +25,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
+use clap::ValueEnum;
 use fmi2_import::Fmu;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -517,7 +518,8 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
                     && text
                         .strip_prefix("trial_")
                         .and_then(|r| {
-                            RecordFormat::ALL.iter().find_map(|f| {
+                            // Every format's files (clap's list of the variants).
+                            RecordFormat::value_variants().iter().find_map(|f| {
                                 r.strip_suffix(f.exporter().extension())?.strip_suffix('.')
                             })
                         })

@@ -297,9 +297,6 @@ pub enum RecordFormat {
 }
 
 impl RecordFormat {
-    /// Every format, for what must know all their files (leftover clean-up on resume).
-    pub const ALL: [RecordFormat; 2] = [RecordFormat::Csv, RecordFormat::Parquet];
-
     /// The exporter writing this format.
     pub fn exporter(self) -> &'static dyn crate::output::Exporter {
         match self {
