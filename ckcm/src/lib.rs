@@ -27,7 +27,9 @@ pub use control::{
 pub use dynamics::{DynamicsError, DynamicsTerms, JointSpaceDynamics};
 pub use integrate::{DormandPrince, IntegrationError, Integrator, Rk4, State};
 pub use kinematics::{FkError, FkOptions, LEGS, LegGeometry, Mechanism, Pose};
-pub use params::{Friction, Geometry, Legs, ParamError, ParamProblem, Params, Platform};
+pub use params::{
+    Friction, FrictionCurve, Geometry, Legs, ParamError, ParamProblem, Params, Platform,
+};
 pub use trajectory::{Reference, Trajectory, TrajectoryKind};
 pub use workspace::{Workspace, WorkspaceError};
 

@@ -82,15 +82,50 @@ impl Default for Legs {
     }
 }
 
-/// Actuator friction: −viscous·l̇ − coulomb·tanh(l̇ / velocity), acting along each leg.
+/// Actuator friction: −viscous·l̇ − coulomb·s(l̇ / velocity), acting along each leg, with s
+/// the smoothed sign function chosen by `curve` (docs/model.md §3).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Friction {
     /// Viscous coefficient, N·s/m. Default 100 (project).
     pub viscous: f64,
     /// Coulomb level, N. Default 20 (project).
     pub coulomb: f64,
-    /// Velocity scale of the tanh smoothing, m/s. Default 0.02 (project).
+    /// Velocity scale of the smoothing, m/s. Default 0.02 (project).
     pub velocity: f64,
+    /// Smoothing curve of the Coulomb term, no unit. Default [`FrictionCurve::Tanh`].
+    pub curve: FrictionCurve,
+}
+
+/// The smoothed sign function s of the Coulomb friction term (docs/model.md §3). Both are
+/// odd, have slope 1 at 0 and tend to ±1, so they agree to first order about rest and far
+/// from it; they differ in how fast they saturate (tanh exponentially, the algebraic curve
+/// as 1 − 1/(2x²)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FrictionCurve {
+    /// s(x) = tanh x: the model's friction, the default.
+    #[default]
+    Tanh,
+    /// s(x) = x / √(1 + x²): a different model, one square root and one division instead
+    /// of libm's `tanh` (which calls `expm1`), offered for speed in sweeps.
+    Algebraic,
+}
+
+impl FrictionCurve {
+    /// Above this |x| the algebraic curve is ±1 to the last bit; clamping there keeps x²
+    /// from overflowing (x / √(1 + ∞) would give 0 instead of ±1).
+    const ALGEBRAIC_SATURATION: f64 = 1e100;
+
+    /// s(x), no unit, in [−1, 1].
+    #[inline]
+    pub fn smoothed_sign(self, x: f64) -> f64 {
+        match self {
+            FrictionCurve::Tanh => x.tanh(),
+            FrictionCurve::Algebraic => {
+                let x = x.clamp(-Self::ALGEBRAIC_SATURATION, Self::ALGEBRAIC_SATURATION);
+                x / (1.0 + x * x).sqrt()
+            }
+        }
+    }
 }
 
 impl Default for Friction {
@@ -99,6 +134,7 @@ impl Default for Friction {
             viscous: 100.0,
             coulomb: 20.0,
             velocity: 0.02,
+            curve: FrictionCurve::Tanh,
         }
     }
 }
@@ -109,12 +145,13 @@ impl Friction {
         viscous: 0.0,
         coulomb: 0.0,
         velocity: 0.02,
+        curve: FrictionCurve::Tanh,
     };
 
     /// Friction force on one leg at leg rate `ldot`, N (opposes the motion).
     #[inline]
     pub fn force(&self, ldot: f64) -> f64 {
-        -self.viscous * ldot - self.coulomb * (ldot / self.velocity).tanh()
+        -self.viscous * ldot - self.coulomb * self.curve.smoothed_sign(ldot / self.velocity)
     }
 }
 
@@ -255,7 +292,8 @@ impl Params {
 }
 
 impl Params {
-    /// The names [`Params::set_field`] accepts, one per scalar field.
+    /// The names [`Params::set_field`] accepts, one per real field (every field but the
+    /// friction curve, an enumeration the plant FMU sets directly).
     pub const FIELDS: [&'static str; 19] = [
         "base_radius",
         "platform_radius",
@@ -345,6 +383,88 @@ mod tests {
         );
         assert!(text.contains("rod_mass"), "{text}");
         assert_eq!(p, Params::default(), "nothing set");
+    }
+
+    /// The algebraic curve at points where x / √(1 + x²) is a fraction by hand
+    /// (3-4-5, 5-12-13 and 1-1-√2 triangles), its limits and its oddness.
+    #[test]
+    fn algebraic_curve_matches_the_formula() {
+        let s = |x| FrictionCurve::Algebraic.smoothed_sign(x);
+        assert_eq!(s(0.0), 0.0);
+        for (x, expected) in [
+            (0.75, 0.6),
+            (4.0 / 3.0, 0.8),
+            (5.0 / 12.0, 5.0 / 13.0),
+            (2.4, 12.0 / 13.0),
+            (1.0, std::f64::consts::FRAC_1_SQRT_2),
+            (3f64.sqrt(), 3f64.sqrt() / 2.0),
+        ] {
+            for (x, expected) in [(x, expected), (-x, -expected)] {
+                assert!(
+                    (s(x) - expected).abs() <= 4.0 * f64::EPSILON * expected.abs(),
+                    "s({x}) = {} instead of {expected}",
+                    s(x)
+                );
+            }
+        }
+        // 1 − s(x) ≈ 1/(2x²): 5e-7 at x = 1000, below one ulp of 1 beyond x ≈ 1e8.
+        assert!((1.0 - s(1e3) - 0.5e-6).abs() < 1e-12, "{}", 1.0 - s(1e3));
+        for x in [1e8, 1e154, 1e200, f64::MAX, f64::INFINITY] {
+            assert_eq!(s(x), 1.0, "s({x})");
+            assert_eq!(s(-x), -1.0, "s(-{x})");
+        }
+        assert!(s(f64::NAN).is_nan());
+        // Odd and increasing, bounded by ±1, slope 1 at rest like tanh.
+        let mut last = -1.0;
+        for k in -400..=400 {
+            let x = f64::from(k) * 0.0125;
+            assert_eq!(s(-x), -s(x), "oddness at {x}");
+            assert!(
+                s(x) > last && s(x).abs() < 1.0,
+                "monotone and bounded at {x}"
+            );
+            last = s(x);
+        }
+        let h = 1e-6;
+        assert!(((s(h) - s(-h)) / (2.0 * h) - 1.0).abs() < 1e-10);
+    }
+
+    /// The default is tanh, and its force is the tanh law written out bit for bit.
+    #[test]
+    fn default_curve_is_tanh_unchanged() {
+        let f = Friction::default();
+        assert_eq!(f.curve, FrictionCurve::Tanh);
+        assert_eq!(FrictionCurve::default(), FrictionCurve::Tanh);
+        assert_eq!(Params::default().friction.curve, FrictionCurve::Tanh);
+        for ldot in [-0.3_f64, -0.02, -1e-4, 0.0, 3e-3, 0.02, 0.07, 1.5] {
+            let by_hand = -100.0 * ldot - 20.0 * (ldot / 0.02).tanh();
+            assert_eq!(f.force(ldot).to_bits(), by_hand.to_bits(), "at {ldot} m/s");
+        }
+    }
+
+    /// Friction opposes the motion with either curve, and the curves agree about rest and
+    /// far from it but not in between (so the choice is visible).
+    #[test]
+    fn both_curves_dissipate_and_differ_only_in_saturation() {
+        let tanh = Friction::default();
+        let algebraic = Friction {
+            curve: FrictionCurve::Algebraic,
+            ..tanh
+        };
+        for f in [tanh, algebraic] {
+            assert_eq!(f.force(0.0), 0.0);
+            for k in 1..=200 {
+                let ldot = 1e-5 * 1.08f64.powi(k);
+                assert!(f.force(ldot) * ldot < 0.0, "{:?} at {ldot} m/s", f.curve);
+                assert!(f.force(-ldot) * -ldot < 0.0, "{:?} at -{ldot} m/s", f.curve);
+            }
+        }
+        let coulomb = |f: &Friction, ldot: f64| f.force(ldot) + f.viscous * ldot;
+        // About rest both are −c_c·l̇/v_s to first order; at v_s they differ by 20·(0.762 − 0.707) N.
+        assert!((coulomb(&tanh, 1e-7) - coulomb(&algebraic, 1e-7)).abs() < 1e-9);
+        let at_scale = coulomb(&algebraic, 0.02) - coulomb(&tanh, 0.02);
+        assert!((at_scale - 20.0 * (1f64.tanh() - 0.5f64.sqrt())).abs() < 1e-12);
+        assert!((coulomb(&tanh, 100.0) - coulomb(&algebraic, 100.0)).abs() < 1e-6);
     }
 
     #[test]
