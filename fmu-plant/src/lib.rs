@@ -10,7 +10,8 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    DormandPrince, Integrator, LegGeometry, Mechanism, Params, Pose, Rk4, State, Workspace,
+    DormandPrince, FrictionCurve, Integrator, LegGeometry, Mechanism, Params, Pose, Rk4, State,
+    Workspace,
 };
 use fmu_core::values::{ByteReader, ByteWriter, Values};
 use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
@@ -24,7 +25,10 @@ pub mod md {
     #![allow(clippy::approx_constant)]
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
-use md::enums::{INTEGRATOR_DORMAND_PRINCE, INTEGRATOR_ITEMS, INTEGRATOR_RK4};
+use md::enums::{
+    FRICTION_CURVE_ALGEBRAIC, FRICTION_CURVE_ITEMS, FRICTION_CURVE_TANH, INTEGRATOR_DORMAND_PRINCE,
+    INTEGRATOR_ITEMS, INTEGRATOR_RK4,
+};
 use md::vr;
 
 /// The Real parameters the plant reads itself (initial pose, integrator tolerances,
@@ -136,8 +140,19 @@ impl Sim {
 }
 
 impl CkcmPlant {
+    /// The mechanism: the Real mechanism parameters and the `friction_curve` enumeration.
     fn params(&self) -> ModelResult<Params> {
-        mechanism_params(md::VARIABLES, &self.values)
+        let mut p = mechanism_params(md::VARIABLES, &self.values)?;
+        p.friction.curve = match self.values.integer(vr::FRICTION_CURVE) {
+            FRICTION_CURVE_TANH => FrictionCurve::Tanh,
+            FRICTION_CURVE_ALGEBRAIC => FrictionCurve::Algebraic,
+            other => {
+                return Err(ModelError::error(format!(
+                    "friction_curve = {other} is not a FrictionCurve item ({FRICTION_CURVE_ITEMS})"
+                )));
+            }
+        };
+        Ok(p)
     }
 
     fn integrator(&self) -> ModelResult<Integrator> {

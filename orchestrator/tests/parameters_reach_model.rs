@@ -326,7 +326,7 @@ fn every_plant_parameter_reaches_the_model() {
         steps: 100,
     };
     let n = every_parameter_reaches_the_model(&case);
-    assert_eq!(n, 34, "CkcmPlant parameters checked");
+    assert_eq!(n, 35, "CkcmPlant parameters checked");
 }
 
 #[test]
