@@ -11,8 +11,8 @@ use std::time::Duration;
 use ckcm::closed_loop::run_trial_with_table;
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    ControlSettings, DormandPrince, Hlcs, Integrator, Mechanism, Params, Pose, ReferenceTable, Rk4,
-    State, Trajectory,
+    ControlSettings, DormandPrince, FrictionCurve, Hlcs, Integrator, Mechanism, Params, Pose,
+    ReferenceTable, Rk4, State, Trajectory,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -52,6 +52,21 @@ fn evaluations(c: &mut Criterion) {
                 black_box(&tau),
             )
             .expect("regular state")
+        })
+    });
+    // The same evaluation with the cheaper Coulomb smoothing (a model change, docs/model.md §3).
+    let mut algebraic = Params::default();
+    algebraic.friction.curve = FrictionCurve::Algebraic;
+    let algebraic = Mechanism::new(algebraic).expect("default parameters are valid");
+    c.bench_function("forward_dynamics_algebraic_friction", |b| {
+        b.iter(|| {
+            algebraic
+                .forward_dynamics(
+                    black_box(&state.pose),
+                    black_box(&state.twist),
+                    black_box(&tau),
+                )
+                .expect("regular state")
         })
     });
     c.bench_function("inverse_dynamics", |b| {
