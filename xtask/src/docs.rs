@@ -11,7 +11,11 @@ fn semantics(model_identifier: &str) -> &'static str {
         "CkcmPlant" => {
             "<p>A 6-DOF closed-kinematic-chain manipulator (Stewart platform) with two-body legs \
              (cylinder hinged at the base, rod ball-jointed to the platform), actuator friction and \
-             gravity. The six <code>force</code> inputs are held constant over each communication step; \
+             gravity. Each actuator's friction is &minus;<code>viscous_friction</code> l&#775; &minus; \
+             <code>coulomb_friction</code> s(l&#775; / <code>friction_velocity</code>), with s = tanh \
+             (the default) or, with <code>friction_curve</code> = algebraic, s(x) = x / &radic;(1 + x&sup2;): \
+             a cheaper curve with the same slope at rest and the same limits, but a different model. \
+             The six <code>force</code> inputs are held constant over each communication step; \
              the rigid-body model is integrated over the step with RK4 (<code>substeps</code> per step) or \
              adaptive Dormand&ndash;Prince 5(4) (<code>relative_tolerance</code>, <code>absolute_tolerance</code>). \
              The outputs at a communication point are the state at that time, so they do not depend \
