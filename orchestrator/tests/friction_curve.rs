@@ -8,7 +8,7 @@ mod common;
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{FrictionCurve, Mechanism, Params, Pose, Rk4, State};
-use common::{CLOSED_LOOP, built_fmu, column, fmu_path_text, read_csv};
+use common::{CLOSED_LOOP, built_fmu, fmu_path_text, read_csv};
 use fmi2_import::Fmu;
 use orchestrator::campaign::{CampaignOptions, run_campaign};
 use orchestrator::output::Recording;
