@@ -10,6 +10,8 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use crate::kinematics::{LEGS, LegGeometry, Mechanism, Pose, skew};
 
+mod soa;
+
 /// Everything the dynamics needs at one state, computed once.
 #[derive(Debug, Clone, Copy)]
 pub struct DynamicsTerms {
@@ -86,7 +88,12 @@ impl Mechanism {
     /// The platform inertia in {B}, R I_A Rᵀ: once per evaluation, shared by M and b.
     #[inline]
     fn inertia_world(&self, legs: &LegGeometry) -> Matrix3<f64> {
-        let rot = &legs.rot_world;
+        self.inertia_world_from(&legs.rot_world)
+    }
+
+    /// R I_A Rᵀ for the orientation matrix R.
+    #[inline]
+    fn inertia_world_from(&self, rot: &Matrix3<f64>) -> Matrix3<f64> {
         rot * self.inertia_platform * rot.transpose()
     }
 
@@ -248,28 +255,6 @@ impl Mechanism {
         ldot.map(|x| self.params.friction.force(x))
     }
 
-    /// Forward dynamics ν̇ = M⁻¹ (Jᵀ(τ + friction(l̇)) − b), with `tau` the actuator forces.
-    pub fn forward_dynamics(
-        &self,
-        pose: &Pose,
-        twist: &Vector6<f64>,
-        tau: &Vector6<f64>,
-    ) -> Result<Vector6<f64>, DynamicsError> {
-        let t = self.terms(pose, twist);
-        let total = tau + self.friction(&t.leg_rates);
-        let rhs = t.jacobian.transpose() * total - t.bias;
-        match solve_spd6(&t.mass, &rhs) {
-            Some(accel) if accel.iter().all(|x| x.is_finite()) => Ok(accel),
-            // The cause, checked only on the failure path: a non-finite state also makes the
-            // mass matrix NaN, which alone would read as "not positive definite".
-            _ if !(pose.is_finite() && twist.iter().all(|x| x.is_finite())) => {
-                Err(DynamicsError::NonFiniteState)
-            }
-            Some(_) => Err(DynamicsError::NonFiniteAcceleration),
-            None => Err(DynamicsError::SingularMass),
-        }
-    }
-
     /// Inverse dynamics τ = J⁻ᵀ (M ν̇ + b): the actuator forces that produce `accel`,
     /// ignoring friction (the feedforward of docs/model.md §4 uses a frictionless nominal model).
     pub fn inverse_dynamics(
@@ -336,55 +321,79 @@ impl Mechanism {
     }
 }
 
-/// Solves M x = b for a symmetric positive-definite 6×6 M (Cholesky, M = L Lᵀ), or `None`
-/// when M is not positive definite.
+/// The Cholesky factor M = L Lᵀ of a symmetric positive-definite 6×6 M, with the
+/// reciprocals of its diagonal.
 ///
 /// Hand-written on fixed-size arrays rather than nalgebra's `cholesky().solve()`: with
 /// constant bounds the loops unroll completely, and in profiles the generic factorisation
 /// plus its two triangular solves was the largest single cost of a forward-dynamics
-/// evaluation after the Newton–Euler bias.
+/// evaluation after the Newton–Euler bias. Split into factor and solve so the caller can
+/// put independent work between them.
+struct Cholesky6 {
+    l: [[f64; 6]; 6],
+    /// 1 / L_jj: six divisions instead of one per element.
+    inv: [f64; 6],
+}
+
 // Index loops state the textbook algorithm directly; iterator forms obscure it.
 #[allow(clippy::needless_range_loop)]
-fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
-    let mut l = [[0.0_f64; 6]; 6];
-    // Reciprocals of the diagonal: six divisions instead of one per element.
-    let mut inv = [0.0_f64; 6];
-    for j in 0..6 {
-        let mut d = m[(j, j)];
-        for k in 0..j {
-            d -= l[j][k] * l[j][k];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let d = d.sqrt();
-        l[j][j] = d;
-        inv[j] = 1.0 / d;
-        for i in j + 1..6 {
-            let mut s = m[(i, j)];
+impl Cholesky6 {
+    /// The factor, or `None` when M is not positive definite (NaN included).
+    #[inline]
+    fn new(m: &Matrix6<f64>) -> Option<Self> {
+        let mut l = [[0.0_f64; 6]; 6];
+        let mut inv = [0.0_f64; 6];
+        for j in 0..6 {
+            let mut d = m[(j, j)];
             for k in 0..j {
-                s -= l[i][k] * l[j][k];
+                d -= l[j][k] * l[j][k];
             }
-            l[i][j] = s * inv[j];
+            if d.is_nan() || d <= 0.0 {
+                return None;
+            }
+            let d = d.sqrt();
+            l[j][j] = d;
+            inv[j] = 1.0 / d;
+            for i in j + 1..6 {
+                let mut s = m[(i, j)];
+                for k in 0..j {
+                    s -= l[i][k] * l[j][k];
+                }
+                l[i][j] = s * inv[j];
+            }
         }
+        Some(Self { l, inv })
     }
-    let mut y = [0.0_f64; 6];
-    for i in 0..6 {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i][k] * y[k];
+
+    /// x with M x = b.
+    #[inline]
+    fn solve(&self, b: &Vector6<f64>) -> Vector6<f64> {
+        let (l, inv) = (&self.l, &self.inv);
+        let mut y = [0.0_f64; 6];
+        for i in 0..6 {
+            let mut s = b[i];
+            for k in 0..i {
+                s -= l[i][k] * y[k];
+            }
+            y[i] = s * inv[i];
         }
-        y[i] = s * inv[i];
-    }
-    let mut x = [0.0_f64; 6];
-    for i in (0..6).rev() {
-        let mut s = y[i];
-        for k in i + 1..6 {
-            s -= l[k][i] * x[k];
+        let mut x = [0.0_f64; 6];
+        for i in (0..6).rev() {
+            let mut s = y[i];
+            for k in i + 1..6 {
+                s -= l[k][i] * x[k];
+            }
+            x[i] = s * inv[i];
         }
-        x[i] = s * inv[i];
+        Vector6::from(x)
     }
-    Some(Vector6::from(x))
+}
+
+/// Solves M x = b for a symmetric positive-definite 6×6 M, or `None` when M is not
+/// positive definite.
+#[cfg(test)]
+fn solve_spd6(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<Vector6<f64>> {
+    Cholesky6::new(m).map(|f| f.solve(b))
 }
 
 #[cfg(test)]

@@ -421,9 +421,7 @@ unsafe fn get_values<M: Model, T>(
         let vrs = unsafe { input(vr, nvr, "vr[]") }?;
         // SAFETY: NULL or valid for writing `nvr` elements, not aliased (module contract).
         let out = unsafe { output(value, nvr, "value[]") }?;
-        for &r in vrs {
-            inst.lookup(function, access, r)?;
-        }
+        inst.accept(function, access, false, vrs)?;
         if nvr > 0 {
             inst.refresh_if_dirty()?;
         }
@@ -459,9 +457,8 @@ unsafe fn set_values<M: Model, T: Copy>(
         let vrs = unsafe { input(vr, nvr, "vr[]") }?;
         // SAFETY: NULL or valid for `nvr` elements (module contract).
         let values = unsafe { input(value, nvr, "value[]") }?;
-        for (&r, &v) in vrs.iter().zip(values) {
-            let spec = inst.lookup(function, access, r)?;
-            inst.check_settable(spec)?;
+        let specs = inst.accept(function, access, true, vrs)?;
+        for (spec, &v) in specs.iter().zip(values) {
             if let Some(x) = numeric(v) {
                 spec.check_range(x).map_err(Failure::error)?;
             }

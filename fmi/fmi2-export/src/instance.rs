@@ -251,6 +251,21 @@ pub(crate) struct Instance<M: Model> {
     /// references are usually small dense integers, and get/set run every step for every
     /// scalar, so a direct table replaces the search; empty when they are too sparse.
     direct: [Vec<u32>; 3],
+    /// Per [`Access`], the last array of value references a getter (`[k][0]`) and a
+    /// setter (`[k][1]`) accepted. Masters pass the same array every step, so comparing
+    /// it with the last accepted one replaces a lookup and a settability check per scalar.
+    accepted: [[Accepted; 2]; 3],
+}
+
+/// An array of value references that one typed get or set function accepted, with the
+/// variables they name and, for setters, the state it was accepted in (settability
+/// depends on the state; that the references exist and have the right type does not).
+#[derive(Debug, Default)]
+struct Accepted {
+    valid: bool,
+    vrs: Vec<u32>,
+    specs: Vec<&'static VarSpec>,
+    state: Option<FmiState>,
 }
 
 /// Largest value reference for which [`Instance`] builds direct lookup tables.
@@ -301,6 +316,7 @@ impl<M: Model> Instance<M> {
             enabled: [logging_on; 5],
             index,
             direct,
+            accepted: Default::default(),
         }
     }
 
@@ -422,6 +438,46 @@ impl<M: Model> Instance<M> {
             ),
             None => format!("unknown value reference {vr}"),
         }))
+    }
+
+    /// The variables `vrs` name, each checked for `access` and, for a setter, for being
+    /// settable in the current state. The first failure is returned; nothing is changed.
+    ///
+    /// The accepted array is remembered per function, and the same array in a later call
+    /// (in the same state, for a setter) is accepted by one comparison. The buffers are
+    /// reused, so once they have grown a call allocates nothing.
+    pub(crate) fn accept(
+        &mut self,
+        function: Function,
+        access: Access,
+        setter: bool,
+        vrs: &[u32],
+    ) -> Result<&[&'static VarSpec], Failure> {
+        let state = setter.then_some(self.glue.state);
+        let (k, j) = (access as usize, usize::from(setter));
+        let last = &self.accepted[k][j];
+        if !(last.valid && last.state == state && last.vrs == vrs) {
+            let mut entry = std::mem::take(&mut self.accepted[k][j]);
+            entry.valid = false;
+            entry.specs.clear();
+            let checked: Result<(), Failure> = vrs.iter().try_for_each(|&r| {
+                let spec = self.lookup(function, access, r)?;
+                if setter {
+                    self.check_settable(spec)?;
+                }
+                entry.specs.push(spec);
+                Ok(())
+            });
+            if checked.is_ok() {
+                entry.vrs.clear();
+                entry.vrs.extend_from_slice(vrs);
+                entry.state = state;
+                entry.valid = true;
+            }
+            self.accepted[k][j] = entry;
+            checked?;
+        }
+        Ok(&self.accepted[k][j].specs)
     }
 
     /// Checks that `spec` may be set in the current state (FMI 2.0 CS rules). The state

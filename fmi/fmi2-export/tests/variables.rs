@@ -162,6 +162,40 @@ fn set_rules_after_initialization() {
     );
 }
 
+/// The glue accepts a value-reference array it accepted before by comparing it with the
+/// last one; settability depends on the state, so the same array is refused once the
+/// state forbids it, and an array with one unknown reference is never remembered.
+#[test]
+fn an_accepted_array_is_checked_again_in_a_new_state() {
+    let fmu = Fmu::new("again");
+    let both = [vr::FORCE, vr::MASS];
+    assert_eq!(fmu.set_real(&both, &[0.5, 2.0]), Status::Ok);
+    assert_eq!(fmu.set_real(&both, &[0.6, 2.1]), Status::Ok);
+    assert_eq!(fmu.setup(0.0, None), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.set_real(&both, &[0.7, 2.2]), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    assert_eq!(fmu.set_real(&both, &[0.8, 2.3]), Status::Error);
+    assert!(
+        fmu.log
+            .contains("cannot set fixed parameter 'mass' in state StepComplete"),
+        "{:?}",
+        fmu.log.messages()
+    );
+
+    let fmu = Fmu::initialized("again-unknown");
+    assert_eq!(fmu.get_real(&[vr::X, vr::V]).0, Status::Ok);
+    assert_eq!(fmu.get_real(&[vr::X, 99]).0, Status::Error);
+    // Terminated still allows gets; the refused array was not remembered.
+    assert_eq!(fmu.get_real(&[vr::X, 99]).0, Status::Error);
+    let refused = fmu.log.messages();
+    let refused = refused
+        .iter()
+        .filter(|m| m.contains("unknown value reference 99"))
+        .count();
+    assert_eq!(refused, 2, "{:?}", fmu.log.messages());
+}
+
 #[test]
 fn never_settable_variables() {
     let cases: [(u32, &str); 6] = [
