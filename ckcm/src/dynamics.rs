@@ -5,6 +5,9 @@
 //! about the leg axis. The mass matrix is closed form; the bias b comes from per-body
 //! Newton–Euler at zero acceleration, so the two are derived independently and the tests
 //! can check one against the other.
+//!
+//! [`Mechanism::forward_dynamics`], which the integrators call four times per RK4 step,
+//! lives in `soa`: the same formulas over the six legs as structure of arrays.
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 

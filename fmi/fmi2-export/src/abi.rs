@@ -457,10 +457,12 @@ unsafe fn set_values<M: Model, T: Copy>(
         let vrs = unsafe { input(vr, nvr, "vr[]") }?;
         // SAFETY: NULL or valid for `nvr` elements (module contract).
         let values = unsafe { input(value, nvr, "value[]") }?;
-        let specs = inst.accept(function, access, true, vrs)?;
-        for (spec, &v) in specs.iter().zip(values) {
-            if let Some(x) = numeric(v) {
-                spec.check_range(x).map_err(Failure::error)?;
+        let (specs, ranged) = inst.accept(function, access, true, vrs)?;
+        if ranged {
+            for (spec, &v) in specs.iter().zip(values) {
+                if let Some(x) = numeric(v) {
+                    spec.check_range(x).map_err(Failure::error)?;
+                }
             }
         }
         if nvr > 0 {

@@ -120,8 +120,14 @@ impl Tag {
         // magic is compared before `guid` is touched, so `guid` is only read from
         // memory this glue initialised as a `Tag`.
         let magic_found = unsafe { (*tag).magic };
+        if magic_found != magic {
+            return false;
+        }
         // SAFETY: as above; the magic matched, so this is one of our tags.
-        magic_found == magic && unsafe { (*tag).guid } == M::GUID
+        let guid = unsafe { (*tag).guid };
+        // The same string in this library is the same pointer: every call on a live
+        // instance takes that shortcut instead of comparing the GUID byte by byte.
+        std::ptr::eq(guid, M::GUID) || guid == M::GUID
     }
 
     /// Clears the magic before the memory is released, so a stale pointer passed
@@ -263,6 +269,9 @@ pub(crate) struct Instance<M: Model> {
 #[derive(Debug, Default)]
 struct Accepted {
     valid: bool,
+    /// Whether any of the variables declares a `min` or `max` (the setters' range check
+    /// is skipped otherwise).
+    ranged: bool,
     vrs: Vec<u32>,
     specs: Vec<&'static VarSpec>,
     state: Option<FmiState>,
@@ -441,7 +450,8 @@ impl<M: Model> Instance<M> {
     }
 
     /// The variables `vrs` name, each checked for `access` and, for a setter, for being
-    /// settable in the current state. The first failure is returned; nothing is changed.
+    /// settable in the current state, and whether any of them has a declared range. The
+    /// first failure is returned; nothing is changed.
     ///
     /// The accepted array is remembered per function, and the same array in a later call
     /// (in the same state, for a setter) is accepted by one comparison. The buffers are
@@ -452,7 +462,7 @@ impl<M: Model> Instance<M> {
         access: Access,
         setter: bool,
         vrs: &[u32],
-    ) -> Result<&[&'static VarSpec], Failure> {
+    ) -> Result<(&[&'static VarSpec], bool), Failure> {
         let state = setter.then_some(self.glue.state);
         let (k, j) = (access as usize, usize::from(setter));
         let last = &self.accepted[k][j];
@@ -469,6 +479,10 @@ impl<M: Model> Instance<M> {
                 Ok(())
             });
             if checked.is_ok() {
+                entry.ranged = entry
+                    .specs
+                    .iter()
+                    .any(|v| v.min.is_some() || v.max.is_some());
                 entry.vrs.clear();
                 entry.vrs.extend_from_slice(vrs);
                 entry.state = state;
@@ -477,7 +491,8 @@ impl<M: Model> Instance<M> {
             self.accepted[k][j] = entry;
             checked?;
         }
-        Ok(&self.accepted[k][j].specs)
+        let entry = &self.accepted[k][j];
+        Ok((&entry.specs, entry.ranged))
     }
 
     /// Checks that `spec` may be set in the current state (FMI 2.0 CS rules). The state

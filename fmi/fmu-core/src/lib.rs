@@ -51,6 +51,7 @@ pub fn check_ranges<M: Model>(model: &M) -> Result<(), String> {
 impl VarSpec {
     /// Checks `value` against this variable's declared range; NaN is never inside a
     /// declared range. The message names the variable, the value and the range.
+    #[inline]
     pub fn check_range(&self, value: f64) -> Result<(), String> {
         if self.min.is_none() && self.max.is_none() {
             return Ok(());
@@ -58,16 +59,21 @@ impl VarSpec {
         let below = self.min.is_some_and(|lo| value < lo);
         let above = self.max.is_some_and(|hi| value > hi);
         if value.is_nan() || below || above {
-            let bound =
-                |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
-            return Err(format!(
-                "{} = {value} is outside its range [{}, {}]",
-                self.name,
-                bound(self.min, "-inf"),
-                bound(self.max, "inf")
-            ));
+            return Err(self.out_of_range(value));
         }
         Ok(())
+    }
+
+    /// The message of a failed [`VarSpec::check_range`], out of line (see there).
+    #[cold]
+    fn out_of_range(&self, value: f64) -> String {
+        let bound = |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
+        format!(
+            "{} = {value} is outside its range [{}, {}]",
+            self.name,
+            bound(self.min, "-inf"),
+            bound(self.max, "inf")
+        )
     }
 }
 

@@ -52,6 +52,7 @@ impl Values {
 
     /// Stores a Real, refusing NaN and infinities with an error naming the variable: no
     /// model here has a use for them, and they would poison every later step.
+    #[inline]
     pub fn set_finite_real(
         &mut self,
         variables: &[VarSpec],
@@ -59,13 +60,7 @@ impl Values {
         value: f64,
     ) -> ModelResult<()> {
         if !value.is_finite() {
-            let name = variables
-                .iter()
-                .find(|v| v.value_reference == vr && v.var_type == VarType::Real);
-            return Err(ModelError::error(format!(
-                "{} = {value} is not finite",
-                name.map_or("?", |v| v.name)
-            )));
+            return Err(not_finite(variables, vr, value));
         }
         self.set_real(vr, value);
         Ok(())
@@ -263,4 +258,17 @@ impl ByteReader<'_> {
             )))
         }
     }
+}
+
+/// The error of [`Values::set_finite_real`], kept out of line: it runs once per failed run,
+/// the setter once per scalar per step.
+#[cold]
+fn not_finite(variables: &[VarSpec], vr: u32, value: f64) -> ModelError {
+    let name = variables
+        .iter()
+        .find(|v| v.value_reference == vr && v.var_type == VarType::Real);
+    ModelError::error(format!(
+        "{} = {value} is not finite",
+        name.map_or("?", |v| v.name)
+    ))
 }
