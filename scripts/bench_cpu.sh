@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# CPU-time benchmarks, for a shared machine: a process's CPU time (user + sys) moves far less
+# with other builds running than the wall time criterion reports, so base and after can be
+# compared back to back even at load 3-4 on 2 cores. Every figure is the minimum over RUNS.
+#
+#   trial DIR [RUNS]          CPU ms per 15 s HLCS line trial of `orchestrator run` with the
+#                             FMUs of DIR: (CPU(21 trials) - CPU(1 trial)) / 20, no recording
+#   floor BIN [RUNS]          CPU ms per trial of the FMI-free floor (ckcm's `floor` example
+#                             binary BIN, 30 trials per run, perf task-clock)
+#   hlcs DIR FORMAT [RUNS]    wall and CPU s of `orchestrator run scenarios/line-hlcs.toml` as
+#                             shipped (10 trials, 5 recorded) with the FMUs of DIR, recording
+#                             in FORMAT (csv or parquet); every run is printed
+#
+# Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
+# cargo build --release -p ckcm --example floor); GNU time and perf
+# (apt-get install -y time linux-perf). CKCM_ORCHESTRATOR picks another CLI binary.
+# Usage: scripts/bench_cpu.sh trial|floor|hlcs ...
+set -euo pipefail
+
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs ...}
+shift
+repo=$(cd "$(dirname "$0")/.." && pwd)
+bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+# scenario DIR TRIALS RECORD: scenarios/line-hlcs.toml with the FMUs of DIR and TRIALS trials,
+# without its [record] table unless RECORD is "record".
+scenario() {
+    local dir trials keep
+    dir=$(cd "$1" && pwd)
+    trials=$2
+    keep=$3
+    local out="$work/s$trials-$keep.toml"
+    if [[ $keep == record ]]; then
+        sed -e "s|../target/fmu|$dir|" -e "s/^trials = 10$/trials = $trials/" \
+            "$repo/scenarios/line-hlcs.toml" >"$out"
+    else
+        sed -e "s|../target/fmu|$dir|" -e "s/^trials = 10$/trials = $trials/" \
+            -e '/^\[record\]/,/^trials = \[/d' "$repo/scenarios/line-hlcs.toml" >"$out"
+    fi
+    echo "$out"
+}
+
+# cpu_of FILE: user + sys seconds written by GNU time -f "%U %S".
+cpu_of() { awk '{print $1 + $2}' "$1"; }
+
+case $mode in
+trial)
+    dir=${1:?trial DIR [RUNS]}
+    runs=${2:-3}
+    one=$(scenario "$dir" 1 none)
+    many=$(scenario "$dir" 21 none)
+    best=
+    for ((k = 0; k < runs; k++)); do
+        /usr/bin/time -o "$work/t1" -f "%U %S" "$bin" run "$one" --out "$work/o1" --force >/dev/null 2>&1
+        /usr/bin/time -o "$work/t21" -f "%U %S" "$bin" run "$many" --out "$work/o21" --force >/dev/null 2>&1
+        ms=$(awk -v a="$(cpu_of "$work/t1")" -v b="$(cpu_of "$work/t21")" 'BEGIN {print (b - a) / 20 * 1000}')
+        best=$(awk -v x="$ms" -v b="$best" 'BEGIN {print (b == "" || x < b) ? x : b}')
+    done
+    printf '%s: %.1f ms CPU per trial (min of %d)\n' "$dir" "$best" "$runs"
+    ;;
+floor)
+    floor=${1:?floor BIN [RUNS]}
+    runs=${2:-3}
+    best=
+    for ((k = 0; k < runs; k++)); do
+        ms=$(perf stat -x, -e task-clock "$floor" 30 2>&1 >/dev/null | awk -F, '/task-clock/ {print $1 / 30}')
+        best=$(awk -v x="$ms" -v b="$best" 'BEGIN {print (b == "" || x < b) ? x : b}')
+    done
+    printf '%s: %.2f ms CPU per trial (min of %d)\n' "$floor" "$best" "$runs"
+    ;;
+hlcs)
+    dir=${1:?hlcs DIR FORMAT [RUNS]}
+    format=${2:?hlcs DIR FORMAT [RUNS]}
+    runs=${3:-3}
+    s=$(scenario "$dir" 10 record)
+    for ((k = 0; k < runs; k++)); do
+        /usr/bin/time -o "$work/th" -f "%e %U %S" "$bin" run "$s" --out "$work/oh" --force \
+            --record-format "$format" >/dev/null 2>&1
+        awk -v f="$format" '{printf "%s: wall %.2f s (%.0fx real time), CPU %.2f s\n", f, $1, 150 / $1, $2 + $3}' "$work/th"
+    done
+    ;;
+*)
+    echo "unknown mode $mode: trial, floor or hlcs" >&2
+    exit 2
+    ;;
+esac
