@@ -38,16 +38,17 @@ def test_fmpy_validate_reports_no_problems(fmu_dir: Path, name: str) -> None:
     assert "No problems found." in run.stdout
 
 
-def simulate_plant(plant_fmu: Path, force: float) -> np.ndarray:
-    """2 s of the plant under a constant force on every leg; log messages collected."""
+def simulate_plant(plant_fmu: Path, force: float, **parameters: int | float) -> np.ndarray:
+    """2 s of the plant under a constant force on every leg, with extra parameters; log
+    messages collected."""
     messages: list[tuple[int, str]] = []
     result = simulate_fmu(
         str(plant_fmu),
         fmi_type="CoSimulation",
         output_interval=1e-3,
         stop_time=2.0,
-        start_values={name: force for name in legs("force")},
-        output=legs("pose"),
+        start_values={**{name: force for name in legs("force")}, **parameters},
+        output=legs("pose") + legs("velocity"),
         logger=lambda _c, _n, status, _cat, msg: messages.append((status, msg.decode())),
     )
     assert not [m for m in messages if m[0] > 0], f"plant logged problems: {messages}"
@@ -111,3 +112,25 @@ def test_controller_alone_matches_hand_computed_pid_and_feedforward(
     # After the first step (the output held over [0, h]) the integral is e·h.
     np.testing.assert_allclose(force[1], at_init + KI * e * H, rtol=0, atol=1e-7)
     assert force[1, 0] - force[0, 0] == pytest.approx(KI * -dl * H, abs=1e-9)
+
+
+def test_friction_curve_is_tanh_by_default_and_algebraic_on_request(plant_fmu: Path) -> None:
+    """`friction_curve` set from fmpy: the default is the tanh curve bit for bit; the
+    algebraic curve changes the motion a little (it saturates more slowly, so it brakes the
+    falling legs less) but not the character of it."""
+    md = read_model_description(str(plant_fmu))
+    force = 0.8 * HOLD_FORCE
+    default = simulate_plant(plant_fmu, force)
+    tanh = simulate_plant(
+        plant_fmu, force, friction_curve=enumeration_value(md, "friction_curve", "tanh")
+    )
+    algebraic = simulate_plant(
+        plant_fmu, force, friction_curve=enumeration_value(md, "friction_curve", "algebraic")
+    )
+    names = legs("pose") + legs("velocity")
+    for name in names:
+        np.testing.assert_array_equal(default[name], tanh[name], err_msg=name)
+    z_tanh, z_algebraic = tanh["pose[3]"], algebraic["pose[3]"]
+    assert z_tanh[-1] < 0.5 - 1e-3, "the platform sinks under 80 % of the holding force"
+    gap = np.max(np.abs(z_algebraic - z_tanh))
+    assert 1e-7 < gap < 0.1 * (0.5 - z_tanh[-1]), f"curves differ by {gap} m in z"
