@@ -2,8 +2,9 @@
 //! integrator calls four times per RK4 step.
 //!
 //! Every per-leg quantity is an `[f64; 6]` per component, and every per-leg formula is a
-//! loop over the six legs with no calls in its body, so the compiler computes two or four
-//! legs per instruction. Each formula is written in exactly the operation order of the
+//! loop over the six legs with no calls in its body, so the compiler computes two legs per
+//! SSE2 instruction (BENCHMARKS.md, round 4: AVX2 gained nothing, the evaluation is bound by
+//! its chains of square roots and divisions). Each formula is written in exactly the operation order of the
 //! reference path ([`Mechanism::inverse_kinematics`], [`Mechanism::terms`] and the
 //! Cholesky solve, which follow nalgebra's order for dot, cross and matrix–vector
 //! products), and sums over legs run in leg order: the result is bit-identical to the
@@ -52,8 +53,8 @@ impl Mechanism {
         let rot = *pose.q_world.to_rotation_matrix().matrix();
         let p = pose.p_world;
 
-        // Inverse kinematics: r = R a (gemv order: columns accumulated left to right),
-        // l = (p + r) − b, |l| = √((x² + y²) + z²), n = l / |l|.
+        // Inverse kinematics, paper eqs. (A.14)–(A.16): r = R a (gemv order: columns
+        // accumulated left to right), l = (p + r) − b, |l| = √((x² + y²) + z²), n = l / |l|.
         let mut r: Soa3 = [[0.0; LEGS]; 3];
         let mut n: Soa3 = [[0.0; LEGS]; 3];
         let mut length = [0.0; LEGS];
