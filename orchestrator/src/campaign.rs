@@ -624,52 +624,99 @@ pub fn run_campaign(
     let memory_names = master.memory_names();
     let header = summary_header();
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
-    for k in first..last {
-        bar.set_message(format!("trial {k}/{}", scenario.trials - 1));
-        let rec = scenario.record.records_trial(k).then_some(&mut recording);
-        let record_this = rec.is_some();
-        master.run_trial(k, rec, &mut signals, |n| {
-            if n % 1000 == 999 {
-                bar.inc(1000);
-            }
-        })?;
-        if k == first && !resuming {
-            // A new campaign replaces an old one only now that its first trial succeeded.
-            remove_campaign(dir)?;
-            crash.tick();
-        }
-        // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
-        for sub in ["trials", "memory"] {
-            let p = dir.join(sub);
-            fs::create_dir_all(&p)
-                .map_err(|source| CampaignError::CreateDir { path: p, source })?;
-        }
-        if k == first {
-            write_atomic(&dir.join("scenario.toml"), |w| {
-                w.write_all(scenario_text.as_bytes())
-            })?;
-            crash.tick();
-        }
-        if record_this {
-            let format = scenario.record.format;
-            write_recording(&trial_file(dir, k, format), &recording, format.exporter())?;
-            crash.tick();
-        }
-        write_memory(&memory_file(dir, k), &master.memory())?;
-        crash.tick();
-        summaries.push(TrialSummary::compute(k, scenario, &signals));
-        let rows: Vec<Vec<String>> = summaries.iter().map(TrialSummary::to_row).collect();
+    // Trial j is committed (summary.csv, progress.toml, the previous memory file removed),
+    // in trial order, only once all its files are durable. A recorded trial's file is
+    // written by a thread while the next trial runs (the second core formats and syncs it),
+    // so its commit waits for that thread; a kill therefore never leaves progress.toml
+    // claiming a trial whose recording is missing.
+    let commit = |j: usize, summaries: &[TrialSummary], crash: &mut CrashPoint| {
+        let rows: Vec<Vec<String>> = summaries[..=j].iter().map(TrialSummary::to_row).collect();
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
         crash.tick();
-        let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", k + 1);
+        let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", j + 1);
         write_atomic(&progress_file, |w| w.write_all(progress.as_bytes()))?;
         crash.tick();
         // Resume needs only the newest memory; the older one is stale once progress moved on.
-        if k > 0 {
-            let _ = fs::remove_file(memory_file(dir, k - 1));
+        if j > 0 {
+            let _ = fs::remove_file(memory_file(dir, j - 1));
             crash.tick();
         }
-    }
+        Ok::<(), CampaignError>(())
+    };
+    let format = scenario.record.format;
+    std::thread::scope(|scope| {
+        // The recorded trial whose file a thread is writing, not yet committed, and the
+        // recording buffer that thread does not hold.
+        let mut pending: Option<(usize, std::thread::ScopedJoinHandle<_>)> = None;
+        let mut spare: Option<Recording> = None;
+        let finish = |pending: &mut Option<(
+            usize,
+            std::thread::ScopedJoinHandle<'_, Result<Recording, OutputError>>,
+        )>,
+                      spare: &mut Option<Recording>,
+                      summaries: &[TrialSummary],
+                      crash: &mut CrashPoint| {
+            if let Some((j, writer)) = pending.take() {
+                let written = writer
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+                crash.tick();
+                *spare = Some(written);
+                commit(j, summaries, crash)?;
+            }
+            Ok::<(), CampaignError>(())
+        };
+        for k in first..last {
+            bar.set_message(format!("trial {k}/{}", scenario.trials - 1));
+            let rec = scenario.record.records_trial(k).then_some(&mut recording);
+            let record_this = rec.is_some();
+            let ran = master.run_trial(k, rec, &mut signals, |n| {
+                if n % 1000 == 999 {
+                    bar.inc(1000);
+                }
+            });
+            if let Err(e) = ran {
+                // The trial before succeeded: keep it.
+                finish(&mut pending, &mut spare, &summaries, &mut crash)?;
+                return Err(e.into());
+            }
+            if k == first && !resuming {
+                // A new campaign replaces an old one only now that its first trial succeeded.
+                remove_campaign(dir)?;
+                crash.tick();
+            }
+            // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
+            for sub in ["trials", "memory"] {
+                let p = dir.join(sub);
+                fs::create_dir_all(&p)
+                    .map_err(|source| CampaignError::CreateDir { path: p, source })?;
+            }
+            if k == first {
+                write_atomic(&dir.join("scenario.toml"), |w| {
+                    w.write_all(scenario_text.as_bytes())
+                })?;
+                crash.tick();
+            }
+            write_memory(&memory_file(dir, k), &master.memory())?;
+            crash.tick();
+            summaries.push(TrialSummary::compute(k, scenario, &signals));
+            finish(&mut pending, &mut spare, &summaries, &mut crash)?;
+            if record_this {
+                let next = spare.take().unwrap_or_else(|| master.new_recording());
+                let full = std::mem::replace(&mut recording, next);
+                let path = trial_file(dir, k, format);
+                pending = Some((
+                    k,
+                    scope.spawn(move || {
+                        write_recording(&path, &full, format.exporter()).map(|()| full)
+                    }),
+                ));
+            } else {
+                commit(k, &summaries, &mut crash)?;
+            }
+        }
+        finish(&mut pending, &mut spare, &summaries, &mut crash)
+    })?;
     bar.finish_and_clear();
     // Also when a resumed campaign had nothing left to run: a run killed right after its
     // last progress.toml still gets its memory.csv.
