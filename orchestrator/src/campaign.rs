@@ -533,6 +533,10 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
     Ok(())
 }
 
+/// The thread writing one recorded trial's file; it hands the recording buffer back.
+type RecordingWriter<'scope> =
+    std::thread::ScopedJoinHandle<'scope, Result<Recording, OutputError>>;
+
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
 /// returning the summaries of all trials.
 pub fn run_campaign(
@@ -647,12 +651,10 @@ pub fn run_campaign(
     std::thread::scope(|scope| {
         // The recorded trial whose file a thread is writing, not yet committed, and the
         // recording buffer that thread does not hold.
-        let mut pending: Option<(usize, std::thread::ScopedJoinHandle<_>)> = None;
+        let mut pending: Option<(usize, RecordingWriter<'_>)> = None;
         let mut spare: Option<Recording> = None;
-        let finish = |pending: &mut Option<(
-            usize,
-            std::thread::ScopedJoinHandle<'_, Result<Recording, OutputError>>,
-        )>,
+        // Waits for the pending writer, takes its buffer back and commits its trial.
+        let finish = |pending: &mut Option<(usize, RecordingWriter<'_>)>,
                       spare: &mut Option<Recording>,
                       summaries: &[TrialSummary],
                       crash: &mut CrashPoint| {
