@@ -210,8 +210,11 @@ impl Mechanism {
         let g = self.params.gravity;
         let v = [twist[0], twist[1], twist[2]];
         let w = [twist[3], twist[4], twist[5]];
+        // The reference evaluates the residual at zero acceleration a = ω̇ = 0, and those
+        // zeros stay operands here: 0 + x is +0 where x is −0, so folding them away could
+        // flip the sign of a zero and, through it, a bit of the result.
         let zero3 = [0.0; 3];
-        // ṡ = v + ω × r, s̈ = (a + ω̇ × r) + ω × (ω × r) with a = ω̇ = 0.
+        // ṡ = v + ω × r, s̈ = (a + ω̇ × r) + ω × (ω × r).
         let w_s = splat(w);
         let w_cross_r = cross(&w_s, r);
         let w_cross_w_cross_r = cross(&w_s, &w_cross_r);
@@ -251,7 +254,8 @@ impl Mechanism {
                 n_cross_f[2] * nk[0] - n_cross_f[0] * nk[2],
                 n_cross_f[0] * nk[1] - n_cross_f[1] * nk[0],
             ];
-            let f_axial = lp.rod_mass * (n_dot_sdd[i] + lp.rod_com * nd_sq + g * nk[2]) - 0.0;
+            // The reference subtracts the leg force τ = 0 here: x − 0 is x to the bit.
+            let f_axial = lp.rod_mass * (n_dot_sdd[i] + lp.rod_com * nd_sq + g * nk[2]);
             for k in 0..3 {
                 f[k][i] = -(f_perp[k] + nk[k] * f_axial);
             }
