@@ -44,31 +44,26 @@ fn evaluations(c: &mut Criterion) {
     let state = busy_state();
     let tau = holding_force(&mech);
     let accel = Vector6::new(0.1, 0.2, -0.1, 0.3, -0.2, 0.1);
-    c.bench_function("forward_dynamics", |b| {
-        b.iter(|| {
-            mech.forward_dynamics(
-                black_box(&state.pose),
-                black_box(&state.twist),
-                black_box(&tau),
-            )
-            .expect("regular state")
-        })
-    });
-    // The same evaluation with the cheaper Coulomb smoothing (a model change, docs/model.md §3).
+    // The default model, and the same evaluation with the cheaper Coulomb smoothing (a model
+    // change, docs/model.md §3).
     let mut algebraic = Params::default();
     algebraic.friction.curve = FrictionCurve::Algebraic;
     let algebraic = Mechanism::new(algebraic).expect("default parameters are valid");
-    c.bench_function("forward_dynamics_algebraic_friction", |b| {
-        b.iter(|| {
-            algebraic
-                .forward_dynamics(
+    for (name, m) in [
+        ("forward_dynamics", &mech),
+        ("forward_dynamics_algebraic_friction", &algebraic),
+    ] {
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                m.forward_dynamics(
                     black_box(&state.pose),
                     black_box(&state.twist),
                     black_box(&tau),
                 )
                 .expect("regular state")
-        })
-    });
+            })
+        });
+    }
     c.bench_function("inverse_dynamics", |b| {
         b.iter(|| {
             nominal
