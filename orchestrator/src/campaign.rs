@@ -21,7 +21,6 @@
 mod lock;
 
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
@@ -241,49 +240,30 @@ const MEMORY_MAGIC: &[u8; 8] = b"CKCMMEM2";
 /// The first format, without a checksum; recognised only to say so.
 const MEMORY_MAGIC_V1: &[u8; 8] = b"CKCMMEM1";
 
-/// A writer that passes bytes on and keeps their CRC-32.
-struct Crc<'a> {
-    inner: &'a mut dyn Write,
-    hasher: crc32fast::Hasher,
-}
-
-impl Write for Crc<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let n = self.inner.write(buf)?;
-        self.hasher.update(&buf[..n]);
-        Ok(n)
+/// The bytes of a memory file, the iteration memory for resuming, exact and fast:
+/// `CKCMMEM2` (format version 2), the channel count and each channel's length (u64), every
+/// channel's values (f64), then the CRC-32 of everything before it (u32), all little-endian.
+/// The checksum turns a corrupted or hand-edited file into an error instead of a silently
+/// different campaign. Formatting 10⁵ floats as text after every trial would cost more than
+/// the trial's co-simulation overhead; the readable `memory.csv` is written once at the end.
+fn memory_bytes(buffers: &[&[f64]]) -> Vec<u8> {
+    // Assembled in memory and checksummed in one pass: one checksum update per value cost
+    // more than writing the file (BENCHMARKS.md, round 5).
+    let values: usize = buffers.iter().map(|b| b.len()).sum();
+    let mut bytes = Vec::with_capacity(MEMORY_MAGIC.len() + 8 * (1 + buffers.len() + values) + 4);
+    bytes.extend_from_slice(MEMORY_MAGIC);
+    bytes.extend_from_slice(&(buffers.len() as u64).to_le_bytes());
+    for b in buffers {
+        bytes.extend_from_slice(&(b.len() as u64).to_le_bytes());
     }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
+    for b in buffers {
+        for x in *b {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
     }
-}
-
-/// The iteration memory for resuming, exact and fast: `CKCMMEM2` (format version 2), the
-/// channel count and each channel's length (u64), every channel's values (f64), then the
-/// CRC-32 of everything before it (u32), all little-endian. The checksum turns a corrupted
-/// or hand-edited file into an error instead of a silently different campaign. Formatting
-/// 10⁵ floats as text after every trial would cost more than the trial's co-simulation
-/// overhead; the readable `memory.csv` is written once at the end.
-fn write_memory(path: &Path, buffers: &[&[f64]]) -> Result<(), OutputError> {
-    write_atomic(path, |w| {
-        let mut w = Crc {
-            inner: w,
-            hasher: crc32fast::Hasher::new(),
-        };
-        w.write_all(MEMORY_MAGIC)?;
-        w.write_all(&(buffers.len() as u64).to_le_bytes())?;
-        for b in buffers {
-            w.write_all(&(b.len() as u64).to_le_bytes())?;
-        }
-        for b in buffers {
-            for x in *b {
-                w.write_all(&x.to_le_bytes())?;
-            }
-        }
-        let crc = w.hasher.finalize();
-        w.inner.write_all(&crc.to_le_bytes())
-    })
+    let crc = crc32fast::hash(&bytes);
+    bytes.extend_from_slice(&crc.to_le_bytes());
+    bytes
 }
 
 /// Reads a memory file, checking its version and checksum, that it holds channels of
@@ -426,7 +406,9 @@ pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), S
 }
 
 /// Counts file operations and aborts the process at the requested one (see
-/// [`CampaignOptions::crash_at`]).
+/// [`CampaignOptions::crash_at`]). One copy at a time counts: the main thread's, or while a
+/// trial's files are written, the writer thread's, which hands it back when joined.
+#[derive(Debug, Clone, Copy)]
 struct CrashPoint {
     at: Option<usize>,
     count: usize,
@@ -533,9 +515,10 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
     Ok(())
 }
 
-/// The thread writing one recorded trial's file; it hands the recording buffer back.
-type RecordingWriter<'scope> =
-    std::thread::ScopedJoinHandle<'scope, Result<Recording, OutputError>>;
+/// The thread writing and committing one trial's files; it hands back the crash counter
+/// and the recording buffer, if the trial was recorded.
+type TrialWriter<'scope> =
+    std::thread::ScopedJoinHandle<'scope, Result<(CrashPoint, Option<Recording>), CampaignError>>;
 
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
 /// returning the summaries of all trials.
@@ -629,10 +612,10 @@ pub fn run_campaign(
     let header = summary_header();
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
     // Trial j is committed (summary.csv, progress.toml, the previous memory file removed),
-    // in trial order, only once all its files are durable. A recorded trial's file is
-    // written by a thread while the next trial runs (the second core formats and syncs it),
-    // so its commit waits for that thread; a kill therefore never leaves progress.toml
-    // claiming a trial whose recording is missing.
+    // in trial order, only once all its files are durable. A thread writes a trial's files
+    // and then commits it while the next trial runs (the second core formats and syncs
+    // them), one trial at a time; a kill therefore never leaves progress.toml claiming a
+    // trial whose recording or memory is missing.
     let commit = |j: usize, summaries: &[TrialSummary], crash: &mut CrashPoint| {
         let rows: Vec<Vec<String>> = summaries[..=j].iter().map(TrialSummary::to_row).collect();
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
@@ -649,22 +632,21 @@ pub fn run_campaign(
     };
     let format = scenario.record.format;
     std::thread::scope(|scope| {
-        // The recorded trial whose file a thread is writing, not yet committed, and the
-        // recording buffer that thread does not hold.
-        let mut pending: Option<(usize, RecordingWriter<'_>)> = None;
+        // The thread writing the last trial's files, and the recording buffer it does not hold.
+        let mut pending: Option<TrialWriter<'_>> = None;
         let mut spare: Option<Recording> = None;
-        // Waits for the pending writer, takes its buffer back and commits its trial.
-        let finish = |pending: &mut Option<(usize, RecordingWriter<'_>)>,
+        // Waits for the pending writer and takes the crash counter and its buffer back.
+        let finish = |pending: &mut Option<TrialWriter<'_>>,
                       spare: &mut Option<Recording>,
-                      summaries: &[TrialSummary],
                       crash: &mut CrashPoint| {
-            if let Some((j, writer)) = pending.take() {
-                let written = writer
+            if let Some(writer) = pending.take() {
+                let (counted, buffer) = writer
                     .join()
                     .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-                crash.tick();
-                *spare = Some(written);
-                commit(j, summaries, crash)?;
+                *crash = counted;
+                if buffer.is_some() {
+                    *spare = buffer;
+                }
             }
             Ok::<(), CampaignError>(())
         };
@@ -677,11 +659,9 @@ pub fn run_campaign(
                     bar.inc(1000);
                 }
             });
-            if let Err(e) = ran {
-                // The trial before succeeded: keep it.
-                finish(&mut pending, &mut spare, &summaries, &mut crash)?;
-                return Err(e.into());
-            }
+            // The trial before succeeded: it is kept either way.
+            finish(&mut pending, &mut spare, &mut crash)?;
+            ran?;
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
                 remove_campaign(dir)?;
@@ -699,25 +679,27 @@ pub fn run_campaign(
                 })?;
                 crash.tick();
             }
-            write_memory(&memory_file(dir, k), &master.memory())?;
-            crash.tick();
+            let memory = memory_bytes(&master.memory());
             summaries.push(TrialSummary::compute(k, scenario, &signals));
-            finish(&mut pending, &mut spare, &summaries, &mut crash)?;
-            if record_this {
+            let committed = summaries.clone();
+            let full = record_this.then(|| {
                 let next = spare.take().unwrap_or_else(|| master.new_recording());
-                let full = std::mem::replace(&mut recording, next);
-                let path = trial_file(dir, k, format);
-                pending = Some((
-                    k,
-                    scope.spawn(move || {
-                        write_recording(&path, &full, format.exporter()).map(|()| full)
-                    }),
-                ));
-            } else {
-                commit(k, &summaries, &mut crash)?;
-            }
+                std::mem::replace(&mut recording, next)
+            });
+            let mut counter = crash;
+            let commit = &commit;
+            pending = Some(scope.spawn(move || {
+                if let Some(full) = &full {
+                    write_recording(&trial_file(dir, k, format), full, format.exporter())?;
+                    counter.tick();
+                }
+                write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;
+                counter.tick();
+                commit(k, &committed, &mut counter)?;
+                Ok((counter, full))
+            }));
         }
-        finish(&mut pending, &mut spare, &summaries, &mut crash)
+        finish(&mut pending, &mut spare, &mut crash)
     })?;
     bar.finish_and_clear();
     // Also when a resumed campaign had nothing left to run: a run killed right after its
