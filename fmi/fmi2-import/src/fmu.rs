@@ -2,6 +2,7 @@
 
 use std::ffi::{CStr, CString};
 use std::fs::File;
+use std::io::{Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -30,12 +31,15 @@ pub(crate) struct Loaded {
 pub struct Fmu {
     path: PathBuf,
     md: ModelDescription,
+    /// The platform folders under `binaries/` in the archive, sorted.
+    platforms: Vec<String>,
     loaded: Arc<Loaded>,
 }
 
 impl Fmu {
-    /// Opens `path`: unzips it into a temporary directory `fmi2-import-<pid>-*` (removed
-    /// when the last of the `Fmu` and its instances is dropped; see
+    /// Opens `path`: unzips it, except other platforms' binaries, into a temporary
+    /// directory `fmi2-import-<pid>-*` (removed when the last of the `Fmu` and its
+    /// instances is dropped; see
     /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
     /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
     /// and resolves all 34 FMI 2.0 co-simulation functions.
@@ -59,13 +63,11 @@ impl Fmu {
             path: std::env::temp_dir(),
             source,
         })?;
-        // `extract` refuses entries that would escape the directory (zip-slip).
-        archive
-            .extract(dir.path())
-            .map_err(|e| ImportError::Unpack {
-                path: path.clone(),
-                detail: e.to_string(),
-            })?;
+        let platforms = platforms_in(&archive);
+        unpack(&mut archive, dir.path()).map_err(|e| ImportError::Unpack {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
 
         let md_path = dir.path().join("modelDescription.xml");
         let md = ModelDescription::from_file(&md_path).map_err(|source| {
@@ -96,7 +98,7 @@ impl Fmu {
                 path,
                 platform: PLATFORM,
                 expected: relative,
-                available: platforms_in(dir.path()),
+                available: platforms,
             });
         }
         let resources = dir.path().join("resources");
@@ -136,6 +138,7 @@ impl Fmu {
         Ok(Fmu {
             path,
             md,
+            platforms,
             loaded: Arc::new(Loaded {
                 functions,
                 _library: library,
@@ -157,10 +160,11 @@ impl Fmu {
     /// The platform folders under `binaries/` in the archive (e.g. `linux64`, `win64`),
     /// sorted.
     pub fn platforms(&self) -> Vec<String> {
-        platforms_in(self.loaded.dir.path())
+        self.platforms.clone()
     }
 
-    /// The directory the archive was unpacked into (removed on drop).
+    /// The directory the archive was unpacked into (removed on drop): everything but the
+    /// binaries of other platforms.
     pub fn unpacked_dir(&self) -> &Path {
         self.loaded.dir.path()
     }
@@ -199,18 +203,61 @@ impl Fmu {
     }
 }
 
-/// The folders under `<unpacked>/binaries/`, sorted; none if it is missing.
-fn platforms_in(unpacked: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(unpacked.join("binaries"))
-        .map(|dir| {
-            dir.filter_map(Result::ok)
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
+/// The folder of `binaries/<folder>/...`, if `name` is an entry inside one.
+fn platform_of(name: &str) -> Option<&str> {
+    let rest = name.strip_prefix("binaries/")?;
+    let (folder, _) = rest.split_once('/')?;
+    (!folder.is_empty()).then_some(folder)
+}
+
+/// The platform folders under `binaries/` in the archive, sorted; none if it has none.
+fn platforms_in<R: Read + Seek>(archive: &zip::ZipArchive<R>) -> Vec<String> {
+    let mut names: Vec<String> = archive
+        .file_names()
+        .filter_map(|n| n.ok())
+        .filter_map(|n| platform_of(&n).map(str::to_owned))
+        .collect();
     names.sort();
+    names.dedup();
     names
+}
+
+/// Unzips `archive` into `dir`, leaving out the binaries of other platforms: a master needs
+/// only its own, and they can be most of an FMU (the shipped FMUs' win64 DLLs are 70 % of
+/// what a Linux master would otherwise inflate and write on every open).
+///
+/// The wanted entries are first copied, still compressed, into an archive in memory, which
+/// the `zip` crate then extracts: its `extract` keeps entries from escaping `dir` (zip-slip)
+/// and resolves symbolic links safely, and it has no per-entry filter of its own. Should the
+/// raw copy fail, everything is extracted as before.
+fn unpack<R: Read + Seek>(
+    archive: &mut zip::ZipArchive<R>,
+    dir: &Path,
+) -> zip::result::ZipResult<()> {
+    let foreign = |name: &str| platform_of(name).is_some_and(|p| p != PLATFORM);
+    // An entry whose name cannot be read stays: extracting it reports the problem.
+    let wanted: Vec<usize> = (0..archive.len())
+        .filter(|&i| !matches!(archive.name_for_index(i), Some(Ok(n)) if foreign(&n)))
+        .collect();
+    if wanted.len() == archive.len() {
+        return archive.extract(dir);
+    }
+    match copy_entries(archive, &wanted) {
+        Ok(mut own) => own.extract(dir),
+        Err(_) => archive.extract(dir),
+    }
+}
+
+/// The entries `wanted` of `archive`, copied without recompressing into an archive in memory.
+fn copy_entries<R: Read + Seek>(
+    archive: &mut zip::ZipArchive<R>,
+    wanted: &[usize],
+) -> zip::result::ZipResult<zip::ZipArchive<Cursor<Vec<u8>>>> {
+    let mut out = zip::ZipWriter::new(Cursor::new(Vec::new()));
+    for &i in wanted {
+        out.raw_copy_file(archive.by_index_raw(i)?)?;
+    }
+    out.finish_into_readable()
 }
 
 /// Fails unless the binary's version string function returns `expected`.

@@ -12,6 +12,88 @@ fn open() -> (tempfile::TempDir, Fmu) {
     (dir, fmu)
 }
 
+/// `dir/MiniPlatform.fmu` with the dummy binary and `extra` entries.
+fn dummy_fmu_and(dir: &std::path::Path, extra: &[(&str, &[u8])]) -> std::path::PathBuf {
+    let path = dir.join("MiniPlatform.fmu");
+    fmu_build::write_fmu(
+        &path,
+        import_support::MODEL_DESCRIPTION,
+        Some(import_support::dummy_library()),
+        extra,
+    )
+    .unwrap();
+    path
+}
+
+/// Only this platform's binaries are unpacked, and `platforms` still lists every platform
+/// folder of the archive; every other entry is unpacked, byte for byte.
+#[test]
+fn other_platforms_binaries_stay_in_the_archive() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dummy_fmu_and(
+        dir.path(),
+        &[
+            ("binaries/win64/MiniPlatform.dll", b"MZ"),
+            ("binaries/darwin64/MiniPlatform.dylib", b"x"),
+            ("resources/table.csv", b"t,x\n0,1\n"),
+            ("documentation/index.html", b"<p>doc</p>"),
+            ("sources/model.c", b"int x;"),
+        ],
+    );
+    let fmu = Fmu::open(&path).unwrap();
+    let mut expected = vec![
+        "darwin64".to_string(),
+        "win64".into(),
+        fmi2_import::PLATFORM.into(),
+    ];
+    expected.sort();
+    assert_eq!(fmu.platforms(), expected);
+    let unpacked = fmu.unpacked_dir();
+    let binaries: Vec<String> = std::fs::read_dir(unpacked.join("binaries"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(binaries, [fmi2_import::PLATFORM]);
+    for (name, bytes) in [
+        ("resources/table.csv", &b"t,x\n0,1\n"[..]),
+        ("documentation/index.html", b"<p>doc</p>"),
+        ("sources/model.c", b"int x;"),
+    ] {
+        assert_eq!(std::fs::read(unpacked.join(name)).unwrap(), bytes, "{name}");
+    }
+    // The binary that was unpacked is the one that runs.
+    let mut inst = fmu.instantiate("a", false).unwrap();
+    inst.setup_experiment(None, 0.0, None).unwrap();
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode().unwrap();
+}
+
+/// An entry that would land outside the extraction folder fails the open, naming the file,
+/// whether or not other platforms' binaries are left out; nothing is written outside.
+#[test]
+fn an_escaping_entry_is_refused_with_or_without_foreign_binaries() {
+    for foreign in [false, true] {
+        let dir = tempfile::tempdir().unwrap();
+        let inner = dir.path().join("a/b");
+        std::fs::create_dir_all(&inner).unwrap();
+        let mut extra: Vec<(&str, &[u8])> = vec![("../../escaped.txt", b"out")];
+        if foreign {
+            extra.push(("binaries/win64/MiniPlatform.dll", b"MZ"));
+        }
+        let path = dummy_fmu_and(&inner, &extra);
+        let err = Fmu::open(&path).unwrap_err();
+        assert!(matches!(err, ImportError::Unpack { .. }), "{err:?}");
+        assert!(
+            err.to_string().contains(&path.display().to_string()),
+            "{err}"
+        );
+        // Two levels up from `<temp>/fmi2-import-<pid>-*/`.
+        let tmp = std::env::temp_dir();
+        let above = tmp.parent().unwrap_or(&tmp);
+        assert!(!above.join("escaped.txt").exists());
+    }
+}
+
 const FORCES: [u32; 6] = [1, 2, 3, 4, 5, 6];
 const XS: [u32; 6] = [11, 12, 13, 14, 15, 16];
 
