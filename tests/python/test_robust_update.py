@@ -115,3 +115,24 @@ def test_the_golden_filter_values_come_from_the_pinned_scipy() -> None:
         [sys.executable, str(script), "--check"], capture_output=True, text=True, timeout=120
     )
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_the_golden_check_tolerates_only_last_bits_of_y() -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import make_learning_golden as golden
+
+    text = golden.GOLDEN.read_text()
+    lines = text.splitlines()
+    y_at = next(i for i, line in enumerate(lines) if line.startswith("y "))
+    b_at = next(i for i, line in enumerate(lines) if line.startswith("b "))
+
+    def with_line(i: int, scale: float) -> str:
+        name, *values = lines[i].split()
+        changed = [repr(float(values[0]) * scale)] + values[1:]
+        return "\n".join(lines[:i] + [" ".join([name, *changed])] + lines[i + 1 :]) + "\n"
+
+    assert golden.compare(text, text) is None
+    assert golden.compare(with_line(y_at, 1 + 1e-13), text) is None
+    assert "y differs" in golden.compare(with_line(y_at, 1 + 1e-8), text)
+    assert "differs" in golden.compare(with_line(b_at, 1 + 1e-15), text)
+    assert "lines" in golden.compare(text + "extra\n", text)
