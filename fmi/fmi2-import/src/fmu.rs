@@ -234,7 +234,14 @@ fn unpack<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     dir: &Path,
 ) -> zip::result::ZipResult<()> {
-    let foreign = |name: &str| platform_of(name).is_some_and(|p| p != PLATFORM);
+    // Only a plain relative name may be left out: any other stays for `extract` to judge,
+    // so `binaries/win64/../../x` is refused as before instead of silently skipped.
+    let plain = |name: &str| {
+        !name.starts_with('/')
+            && !name.contains(['\\', ':', '\0'])
+            && name.split('/').all(|c| c != ".." && c != ".")
+    };
+    let foreign = |name: &str| plain(name) && platform_of(name).is_some_and(|p| p != PLATFORM);
     // An entry whose name cannot be read stays: extracting it reports the problem.
     let wanted: Vec<usize> = (0..archive.len())
         .filter(|&i| !matches!(archive.name_for_index(i), Some(Ok(n)) if foreign(&n)))

@@ -79,6 +79,8 @@ fn an_escaping_entry_is_refused_with_or_without_foreign_binaries() {
         let mut extra: Vec<(&str, &[u8])> = vec![("../../escaped.txt", b"out")];
         if foreign {
             extra.push(("binaries/win64/MiniPlatform.dll", b"MZ"));
+            // Under another platform's folder too: refused, not skipped as a foreign binary.
+            extra[0].0 = "binaries/win64/../../../../escaped.txt";
         }
         let path = dummy_fmu_and(&inner, &extra);
         let err = Fmu::open(&path).unwrap_err();
