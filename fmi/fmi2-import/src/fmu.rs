@@ -228,8 +228,9 @@ fn platforms_in<R: Read + Seek>(archive: &zip::ZipArchive<R>) -> Vec<String> {
 ///
 /// The wanted entries are first copied, still compressed, into an archive in memory, which
 /// the `zip` crate then extracts: its `extract` keeps entries from escaping `dir` (zip-slip)
-/// and resolves symbolic links safely, and it has no per-entry filter of its own. Should the
-/// raw copy fail, everything is extracted as before.
+/// and resolves symbolic links safely, and it has no per-entry filter of its own. When the
+/// wanted entries are too big to copy in memory (over [`COPY_LIMIT`] compressed), or should
+/// the copy fail, everything is extracted as before.
 fn unpack<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     dir: &Path,
@@ -249,11 +250,22 @@ fn unpack<R: Read + Seek>(
     if wanted.len() == archive.len() {
         return archive.extract(dir);
     }
+    let mut size = 0u64;
+    for &i in &wanted {
+        size = size.saturating_add(archive.by_index_raw(i)?.compressed_size());
+    }
+    if size > COPY_LIMIT {
+        return archive.extract(dir);
+    }
     match copy_entries(archive, &wanted) {
         Ok(mut own) => own.extract(dir),
         Err(_) => archive.extract(dir),
     }
 }
+
+/// The most compressed bytes [`unpack`] copies into memory to leave other platforms'
+/// binaries out; an FMU with bigger resources is extracted whole instead.
+const COPY_LIMIT: u64 = 64 << 20;
 
 /// The entries `wanted` of `archive`, copied without recompressing into an archive in memory.
 fn copy_entries<R: Read + Seek>(
