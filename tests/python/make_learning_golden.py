@@ -9,8 +9,8 @@ in requirements.txt. The check demands every line to be the same text except the
 signals `y`, which may differ by 1e-10 of the case's largest |y|: scipy's Gustafsson
 filtering solves small linear systems through LAPACK, whose kernels numpy picks per CPU,
 and on an AMD EPYC (Zen 1) the last bits moved by up to 4e-12 against the file written on
-another machine. The Rust test allows 1e-9. The input signal is built from exactly rounded operations only (no
-libm), so Rust rebuilds it bit for bit instead of reading it.
+another machine. The Rust test allows 1e-9. The input signal is built from exactly rounded
+operations only (no libm), so Rust rebuilds it bit for bit instead of reading it.
 """
 
 from __future__ import annotations

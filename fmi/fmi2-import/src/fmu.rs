@@ -250,13 +250,6 @@ fn unpack<R: Read + Seek>(
     if wanted.len() == archive.len() {
         return archive.extract(dir);
     }
-    let mut size = 0u64;
-    for &i in &wanted {
-        size = size.saturating_add(archive.by_index_raw(i)?.compressed_size());
-    }
-    if size > COPY_LIMIT {
-        return archive.extract(dir);
-    }
     match copy_entries(archive, &wanted) {
         Ok(mut own) => own.extract(dir),
         Err(_) => archive.extract(dir),
@@ -267,14 +260,23 @@ fn unpack<R: Read + Seek>(
 /// binaries out; an FMU with bigger resources is extracted whole instead.
 const COPY_LIMIT: u64 = 64 << 20;
 
-/// The entries `wanted` of `archive`, copied without recompressing into an archive in memory.
+/// The entries `wanted` of `archive`, copied without recompressing into an archive in memory;
+/// an error once they pass [`COPY_LIMIT`].
 fn copy_entries<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     wanted: &[usize],
 ) -> zip::result::ZipResult<zip::ZipArchive<Cursor<Vec<u8>>>> {
     let mut out = zip::ZipWriter::new(Cursor::new(Vec::new()));
+    let mut size = 0u64;
     for &i in wanted {
-        out.raw_copy_file(archive.by_index_raw(i)?)?;
+        let entry = archive.by_index_raw(i)?;
+        size = size.saturating_add(entry.compressed_size());
+        if size > COPY_LIMIT {
+            return Err(zip::result::ZipError::UnsupportedArchive(
+                "entries too big to copy in memory",
+            ));
+        }
+        out.raw_copy_file(entry)?;
     }
     out.finish_into_readable()
 }
