@@ -81,14 +81,6 @@ impl Mechanism {
         // Jacobian rows j_i = [n_i; r_i × n_i].
         let m = cross(&r, &n);
         let jac = [n[0], n[1], n[2], m[0], m[1], m[2]];
-
-        let inertia_world = self.inertia_world_from(&rot);
-        let mass = self.mass_matrix_soa(&r, &length, &jac, &inertia_world);
-        // Factor M before the bias: the factorisation is one long chain of dependent
-        // square roots and divisions that the processor overlaps with the bias below.
-        let factor = Cholesky6::new(&mass);
-        let bias = self.bias_soa(&r, &n, &length, twist, &inertia_world);
-
         // l̇ = J ν in gemv order (columns of J accumulated left to right).
         let mut leg_rates = [0.0; LEGS];
         for i in 0..LEGS {
@@ -99,8 +91,20 @@ impl Mechanism {
                 + jac[4][i] * twist[4]
                 + jac[5][i] * twist[5];
         }
-        let total: [f64; LEGS] =
-            std::array::from_fn(|i| tau[i] + self.params.friction.force(leg_rates[i]));
+        // The friction's six libm calls come before the mass matrix, not after its
+        // factorisation: fewer values are live across them (2–4 % of a trial, BENCHMARKS.md
+        // round 6).
+        let friction: [f64; LEGS] =
+            std::array::from_fn(|i| self.params.friction.force(leg_rates[i]));
+
+        let inertia_world = self.inertia_world_from(&rot);
+        let mass = self.mass_matrix_soa(&r, &length, &jac, &inertia_world);
+        // Factor M before the bias: the factorisation is one long chain of dependent
+        // square roots and divisions that the processor overlaps with the bias below.
+        let factor = Cholesky6::new(&mass);
+        let bias = self.bias_soa(&r, &n, &length, twist, &inertia_world);
+
+        let total: [f64; LEGS] = std::array::from_fn(|i| tau[i] + friction[i]);
         // Jᵀ (τ + friction) − b, legs accumulated in order.
         let rhs = Vector6::from_fn(|c, _| {
             let mut s = jac[c][0] * total[0];
