@@ -92,7 +92,7 @@ impl Mechanism {
                 + jac[5][i] * twist[5];
         }
         // The friction's six libm calls come before the mass matrix, not after its
-        // factorisation, where more values are live across them: 3.5–4.5 % less CPU per
+        // factorisation, where more values are live across them: 3–4.5 % less CPU per
         // trial of the FMI-free floor, same bits (BENCHMARKS.md, round 6).
         let friction: [f64; LEGS] =
             std::array::from_fn(|i| self.params.friction.force(leg_rates[i]));
