@@ -327,13 +327,16 @@ impl Mechanism {
 /// The Cholesky factor M = L Lᵀ of a symmetric positive-definite 6×6 M, with the
 /// reciprocals of its diagonal.
 ///
-/// Hand-written on fixed-size arrays rather than nalgebra's `cholesky().solve()`: with
-/// constant bounds the loops unroll completely, and in profiles the generic factorisation
-/// plus its two triangular solves was the largest single cost of a forward-dynamics
-/// evaluation after the Newton–Euler bias. Split into factor and solve so the caller can
-/// put independent work between them.
+/// Hand-written on fixed-size arrays rather than nalgebra's `cholesky().solve()`: in
+/// profiles the generic factorisation plus its two triangular solves was the largest single
+/// cost of a forward-dynamics evaluation after the Newton–Euler bias. Each column is its own
+/// const-generic call so every loop unrolls completely: as plain nested loops the outer one
+/// stayed a loop and the FMI-free trial took 7 % more CPU (BENCHMARKS.md, round 7). Split
+/// into factor and solve so the caller can put independent work between them.
 struct Cholesky6 {
-    l: [[f64; 6]; 6],
+    /// L column by column: `lt[k][i]` = L_ik, so one column's rows are contiguous and the
+    /// updates of a column's six rows vectorise.
+    lt: [[f64; 6]; 6],
     /// 1 / L_jj: six divisions instead of one per element.
     inv: [f64; 6],
 }
@@ -344,39 +347,60 @@ impl Cholesky6 {
     /// The factor, or `None` when M is not positive definite (NaN included).
     #[inline]
     fn new(m: &Matrix6<f64>) -> Option<Self> {
-        let mut l = [[0.0_f64; 6]; 6];
+        let mut lt = [[0.0_f64; 6]; 6];
         let mut inv = [0.0_f64; 6];
-        for j in 0..6 {
-            let mut d = m[(j, j)];
-            for k in 0..j {
-                d -= l[j][k] * l[j][k];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return None;
-            }
-            let d = d.sqrt();
-            l[j][j] = d;
-            inv[j] = 1.0 / d;
-            for i in j + 1..6 {
-                let mut s = m[(i, j)];
-                for k in 0..j {
-                    s -= l[i][k] * l[j][k];
-                }
-                l[i][j] = s * inv[j];
+        // One call per column with the column index a constant, so every inner loop has a
+        // constant trip count and unrolls completely.
+        (Self::column::<0>(m, &mut lt, &mut inv)
+            && Self::column::<1>(m, &mut lt, &mut inv)
+            && Self::column::<2>(m, &mut lt, &mut inv)
+            && Self::column::<3>(m, &mut lt, &mut inv)
+            && Self::column::<4>(m, &mut lt, &mut inv)
+            && Self::column::<5>(m, &mut lt, &mut inv))
+        .then_some(Self { lt, inv })
+    }
+
+    /// Column `J` of L (left-looking): false when M is not positive definite there.
+    #[inline(always)]
+    fn column<const J: usize>(
+        m: &Matrix6<f64>,
+        lt: &mut [[f64; 6]; 6],
+        inv: &mut [f64; 6],
+    ) -> bool {
+        let mut d = m[(J, J)];
+        for k in 0..J {
+            d -= lt[k][J] * lt[k][J];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        let d = d.sqrt();
+        lt[J][J] = d;
+        inv[J] = 1.0 / d;
+        let mut s = [0.0_f64; 6];
+        for i in J + 1..6 {
+            s[i] = m[(i, J)];
+        }
+        for k in 0..J {
+            for i in J + 1..6 {
+                s[i] -= lt[k][i] * lt[k][J];
             }
         }
-        Some(Self { l, inv })
+        for i in J + 1..6 {
+            lt[J][i] = s[i] * inv[J];
+        }
+        true
     }
 
     /// x with M x = b.
     #[inline]
     fn solve(&self, b: &Vector6<f64>) -> Vector6<f64> {
-        let (l, inv) = (&self.l, &self.inv);
+        let (lt, inv) = (&self.lt, &self.inv);
         let mut y = [0.0_f64; 6];
         for i in 0..6 {
             let mut s = b[i];
             for k in 0..i {
-                s -= l[i][k] * y[k];
+                s -= lt[k][i] * y[k];
             }
             y[i] = s * inv[i];
         }
@@ -384,7 +408,7 @@ impl Cholesky6 {
         for i in (0..6).rev() {
             let mut s = y[i];
             for k in i + 1..6 {
-                s -= l[k][i] * x[k];
+                s -= lt[i][k] * x[k];
             }
             x[i] = s * inv[i];
         }
@@ -416,5 +440,72 @@ mod tests {
         indefinite[(3, 3)] = -1.0;
         assert!(solve_spd6(&indefinite, &b).is_none());
         assert!(solve_spd6(&(m * f64::NAN), &b).is_none());
+    }
+
+    /// The unrolled, column-major factorisation performs each element's operations in the
+    /// textbook order (row-major loops below), so it gives the same bits, and fails on the
+    /// same matrices.
+    #[test]
+    #[allow(clippy::needless_range_loop)]
+    fn same_bits_as_the_textbook_loops() {
+        fn textbook(m: &Matrix6<f64>, b: &Vector6<f64>) -> Option<[f64; 6]> {
+            let mut l = [[0.0_f64; 6]; 6];
+            let mut inv = [0.0_f64; 6];
+            for j in 0..6 {
+                let mut d = m[(j, j)];
+                for k in 0..j {
+                    d -= l[j][k] * l[j][k];
+                }
+                if d.is_nan() || d <= 0.0 {
+                    return None;
+                }
+                l[j][j] = d.sqrt();
+                inv[j] = 1.0 / l[j][j];
+                for i in j + 1..6 {
+                    let mut s = m[(i, j)];
+                    for k in 0..j {
+                        s -= l[i][k] * l[j][k];
+                    }
+                    l[i][j] = s * inv[j];
+                }
+            }
+            let mut y = [0.0; 6];
+            for i in 0..6 {
+                let mut s = b[i];
+                for k in 0..i {
+                    s -= l[i][k] * y[k];
+                }
+                y[i] = s * inv[i];
+            }
+            let mut x = [0.0; 6];
+            for i in (0..6).rev() {
+                let mut s = y[i];
+                for k in i + 1..6 {
+                    s -= l[k][i] * x[k];
+                }
+                x[i] = s * inv[i];
+            }
+            Some(x)
+        }
+        let mut seed = 0x2545_F491_4F6C_DD1D_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for case in 0..5_000 {
+            let a = Matrix6::from_fn(|_, _| next());
+            let mut m = a * a.transpose() + Matrix6::identity() * (0.01 + next().abs());
+            // Every sixth case loses definiteness at a different column.
+            if case % 6 == 5 {
+                let j = (case / 6) % 6;
+                m[(j, j)] = -next().abs();
+            }
+            let b = Vector6::from_fn(|_, _| 10.0 * next());
+            let ours = solve_spd6(&m, &b).map(|x| x.map(f64::to_bits));
+            let theirs = textbook(&m, &b).map(|x| Vector6::from(x).map(f64::to_bits));
+            assert_eq!(ours, theirs, "case {case}");
+        }
     }
 }

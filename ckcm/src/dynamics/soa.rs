@@ -42,6 +42,39 @@ fn splat(x: [f64; 3]) -> Soa3 {
     [[x[0]; LEGS], [x[1]; LEGS], [x[2]; LEGS]]
 }
 
+/// Row `P` of the mass matrix's upper triangle from the legs' rank-one terms
+/// w_i j_i j_iᵀ, summed in leg order.
+#[inline(always)]
+fn mass_row<const P: usize>(
+    u: &mut [f64; 6],
+    w: &[f64; LEGS],
+    jac: &[[f64; LEGS]; 6],
+    transverse: &[f64; LEGS],
+    rr: &[f64; LEGS],
+    r: &Soa3,
+) {
+    let wj: [f64; LEGS] = std::array::from_fn(|i| w[i] * jac[P][i]);
+    for q in P..6 {
+        let t: [f64; LEGS] = std::array::from_fn(|i| wj[i] * jac[q][i]);
+        if P >= 3 {
+            // The rotational block also gets c (|r|² I − r rᵀ) from each leg, added right
+            // after that leg's rank-one term, as the reference does.
+            let (a, b) = (P - 3, q - 3);
+            let s: [f64; LEGS] = std::array::from_fn(|i| {
+                transverse[i] * (if a == b { rr[i] } else { 0.0 } - r[a][i] * r[b][i])
+            });
+            for i in 0..LEGS {
+                u[q] += t[i];
+                u[q] += s[i];
+            }
+        } else {
+            for &x in &t {
+                u[q] += x;
+            }
+        }
+    }
+}
+
 impl Mechanism {
     /// Forward dynamics ν̇ = M⁻¹ (Jᵀ(τ + friction(l̇)) − b), with `tau` the actuator forces.
     pub fn forward_dynamics(
@@ -149,28 +182,14 @@ impl Mechanism {
             rr[i] = r[0][i] * r[0][i] + r[1][i] * r[1][i] + r[2][i] * r[2][i];
         }
         let mut u = [[0.0_f64; 6]; 6];
-        for p in 0..6 {
-            let wj: [f64; LEGS] = std::array::from_fn(|i| w[i] * jac[p][i]);
-            for q in p..6 {
-                let t: [f64; LEGS] = std::array::from_fn(|i| wj[i] * jac[q][i]);
-                if p >= 3 {
-                    // The rotational block also gets c (|r|² I − r rᵀ) from each leg, added
-                    // right after that leg's rank-one term, as the reference does.
-                    let (a, b) = (p - 3, q - 3);
-                    let s: [f64; LEGS] = std::array::from_fn(|i| {
-                        transverse[i] * (if a == b { rr[i] } else { 0.0 } - r[a][i] * r[b][i])
-                    });
-                    for i in 0..LEGS {
-                        u[p][q] += t[i];
-                        u[p][q] += s[i];
-                    }
-                } else {
-                    for &x in &t {
-                        u[p][q] += x;
-                    }
-                }
-            }
-        }
+        // One call per row with the row index a constant, so each row's loop over the
+        // columns unrolls completely and its block test is decided at compile time.
+        mass_row::<0>(&mut u[0], &w, jac, &transverse, &rr, r);
+        mass_row::<1>(&mut u[1], &w, jac, &transverse, &rr, r);
+        mass_row::<2>(&mut u[2], &w, jac, &transverse, &rr, r);
+        mass_row::<3>(&mut u[3], &w, jac, &transverse, &rr, r);
+        mass_row::<4>(&mut u[4], &w, jac, &transverse, &rr, r);
+        mass_row::<5>(&mut u[5], &w, jac, &transverse, &rr, r);
         let mut c_sum = self.params.platform.mass;
         let mut c_r = [0.0; 3];
         for i in 0..LEGS {
