@@ -243,10 +243,10 @@ impl HlcsController {
         if commit {
             sim.law.integral = integral;
         }
-        values.set_real6(vr::FORCE_1, out.force.as_slice());
-        values.set_real6(vr::MEMORY_NEXT_1, out.memory_next.as_slice());
-        values.set_real6(vr::LENGTH_REF_1, out.length_ref.as_slice());
-        values.set_real6(vr::ERROR_1, out.error.as_slice());
+        values.set_real6(vr::FORCE_1, &out.force.into());
+        values.set_real6(vr::MEMORY_NEXT_1, &out.memory_next.into());
+        values.set_real6(vr::LENGTH_REF_1, &out.length_ref.into());
+        values.set_real6(vr::ERROR_1, &out.error.into());
         Ok(())
     }
 }

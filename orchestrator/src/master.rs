@@ -87,10 +87,40 @@ struct Wiring {
     in_vrs: Vec<u32>,
     in_src: Vec<Source>,
     in_buf: Vec<f64>,
-    /// (bus slot, recording column) copied before the step (values at t_n).
-    record_before: Vec<(usize, usize)>,
-    /// (bus slot, recording column) copied after the step (values held over the step).
-    record_after: Vec<(usize, usize)>,
+    /// Bus slots copied into recording columns before the step (values at t_n).
+    record_before: Vec<Run>,
+    /// Bus slots copied into recording columns after the step (values held over the step).
+    record_after: Vec<Run>,
+}
+
+/// `len` consecutive bus slots from `slot` copied to the recording columns from `column`:
+/// an array variable's elements are one run, copied as one slice rather than element by
+/// element (about 1 % of a coupled trial).
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    slot: usize,
+    column: usize,
+    len: usize,
+}
+
+impl Run {
+    /// Appends slot `slot` → column `column`, extending the last run when both continue it.
+    fn push(runs: &mut Vec<Run>, slot: usize, column: usize) {
+        match runs.last_mut() {
+            Some(r) if r.slot + r.len == slot && r.column + r.len == column => r.len += 1,
+            _ => runs.push(Run {
+                slot,
+                column,
+                len: 1,
+            }),
+        }
+    }
+
+    fn copy(runs: &[Run], bus: &[f64], row: &mut [f64]) {
+        for r in runs {
+            row[r.column..r.column + r.len].copy_from_slice(&bus[r.slot..r.slot + r.len]);
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -292,9 +322,9 @@ impl<'s> Master<'s> {
                 let s = slot(&wiring, p.fmu, vr);
                 let w = &mut wiring[p.fmu];
                 if p.sampled {
-                    w.record_after.push((s, columns))
+                    Run::push(&mut w.record_after, s, columns)
                 } else {
-                    w.record_before.push((s, columns))
+                    Run::push(&mut w.record_before, s, columns)
                 }
                 columns += 1;
             }
@@ -433,9 +463,7 @@ impl<'s> Master<'s> {
             let t = sc.time(n);
             for k in 0..self.instances.len() {
                 let w = &mut self.wiring[k];
-                for &(s, col) in &w.record_before {
-                    self.row[col] = self.bus[s];
-                }
+                Run::copy(&w.record_before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
                     for (dst, src) in w.in_buf.iter_mut().zip(&w.in_src) {
                         *dst = match *src {
@@ -496,9 +524,7 @@ impl<'s> Master<'s> {
                         what: "fmi2GetReal",
                         source: Box::new(source),
                     })?;
-                for &(s, col) in &w.record_after {
-                    self.row[col] = self.bus[s];
-                }
+                Run::copy(&w.record_after, &self.bus, &mut self.row);
                 for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
                     let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];
                     for (d, &s) in dst.iter_mut().zip(&ch.from_slots) {

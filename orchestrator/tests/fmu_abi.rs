@@ -166,6 +166,26 @@ fn non_finite_input_is_an_error_naming_the_variable() {
     );
 }
 
+/// A batch with one non-finite value in the middle is refused whole: the message names that
+/// element, and the elements before it keep their old values.
+#[test]
+fn a_refused_batch_writes_nothing() {
+    let plant = fmu("CkcmPlant.fmu");
+    let force = vrs(&plant, "force");
+    let mut a = plant.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    a.set_real(&force, &[1.0; 6]).unwrap();
+    let bad = [2.0, 2.0, 2.0, f64::INFINITY, 2.0, 2.0];
+    let err = a.set_real(&force, &bad).unwrap_err().to_string();
+    assert!(
+        err.contains("force[4]") && err.contains("not finite"),
+        "{err}"
+    );
+    let mut now = [0.0; 6];
+    a.get_real(&force, &mut now).unwrap();
+    assert_eq!(now, [1.0; 6]);
+}
+
 #[test]
 fn diverging_plant_is_an_error_never_nan_outputs() {
     let plant = fmu("CkcmPlant.fmu");

@@ -450,7 +450,7 @@ unsafe fn set_values<M: Model, T: Copy>(
     nvr: usize,
     value: *const T,
     numeric: fn(T) -> Option<f64>,
-    write: impl Fn(&mut M, u32, T) -> fmu_core::ModelResult<()>,
+    write: impl Fn(&mut M, &[u32], &[T]) -> fmu_core::ModelResult<()>,
 ) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
         // SAFETY: NULL or valid for `nvr` elements (module contract).
@@ -468,9 +468,7 @@ unsafe fn set_values<M: Model, T: Copy>(
         if nvr > 0 {
             inst.glue.dirty = true;
         }
-        for (&r, &v) in vrs.iter().zip(values) {
-            write(&mut inst.model, r, v)?;
-        }
+        write(&mut inst.model, vrs, values)?;
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.
@@ -606,7 +604,7 @@ pub unsafe fn set_real<M: Model>(
             nvr,
             value,
             Some,
-            M::set_real,
+            M::set_reals,
         )
     }
 }
@@ -631,7 +629,11 @@ pub unsafe fn set_integer<M: Model>(
             nvr,
             value,
             |x| Some(f64::from(x)),
-            M::set_integer,
+            |m: &mut M, vrs: &[u32], values: &[Fmi2Integer]| {
+                vrs.iter()
+                    .zip(values)
+                    .try_for_each(|(&r, &v)| m.set_integer(r, v))
+            },
         )
     }
 }
@@ -646,7 +648,11 @@ pub unsafe fn set_boolean<M: Model>(
     nvr: usize,
     value: *const Fmi2Boolean,
 ) -> Fmi2Status {
-    let write = |m: &mut M, r: u32, v: Fmi2Boolean| m.set_boolean(r, fmi_bool(v));
+    let write = |m: &mut M, vrs: &[u32], values: &[Fmi2Boolean]| {
+        vrs.iter()
+            .zip(values)
+            .try_for_each(|(&r, &v)| m.set_boolean(r, fmi_bool(v)))
+    };
     // SAFETY: forwarded module contract.
     unsafe {
         set_values(

@@ -139,6 +139,14 @@ pub trait Model: Clone + Send + 'static {
     /// Writes a Real (only called where its causality/variability allows it in the current
     /// state). Rejects invalid values, e.g. non-finite inputs, with a message naming the variable.
     fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()>;
+    /// Writes one fmi2SetReal call's values, each checked as by `set_real`. The default
+    /// writes them one by one; [`values_model!`] checks the whole batch first, so a refused
+    /// call writes nothing and an accepted one costs a scan and a copy per value.
+    fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> ModelResult<()> {
+        vrs.iter()
+            .zip(values)
+            .try_for_each(|(&vr, &value)| self.set_real(vr, value))
+    }
 
     /// Reads an Integer or Enumeration.
     fn get_integer(&self, vr: u32) -> i32 {
@@ -213,6 +221,10 @@ macro_rules! values_model {
 
         fn set_real(&mut self, vr: u32, value: f64) -> $crate::ModelResult<()> {
             self.$values.set_finite_real($md::VARIABLES, vr, value)
+        }
+
+        fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> $crate::ModelResult<()> {
+            self.$values.set_finite_reals($md::VARIABLES, vrs, values)
         }
 
         fn get_integer(&self, vr: u32) -> i32 {
