@@ -10,14 +10,21 @@
 #   hlcs DIR FORMAT [RUNS]    wall and CPU s of `orchestrator run scenarios/line-hlcs.toml` as
 #                             shipped (10 trials, 5 recorded) with the FMUs of DIR, recording
 #                             in FORMAT (csv or parquet); every run is printed
+#   instructions DIR          instructions per 15 s HLCS line trial of `orchestrator run`
+#                             with the FMUs of DIR under valgrind's cachegrind:
+#                             (Ir(3 trials) - Ir(1 trial)) / 2, no recording. The same on
+#                             every run, so it resolves changes of 1 % that the CPU time of a
+#                             shared machine cannot; it does not see latency, so a change
+#                             that only shortens a dependency chain needs the CPU figures
 #
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
 # cargo build --release -p ckcm --example floor); GNU time and perf
-# (apt-get install -y time linux-perf). CKCM_ORCHESTRATOR picks another CLI binary.
-# Usage: scripts/bench_cpu.sh trial|floor|hlcs ...
+# (apt-get install -y time linux-perf; valgrind for `instructions`). CKCM_ORCHESTRATOR
+# picks another CLI binary.
+# Usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions ...
 set -euo pipefail
 
-mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs ...}
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions ...}
 shift
 repo=$(cd "$(dirname "$0")/.." && pwd)
 bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
@@ -81,8 +88,18 @@ hlcs)
         awk -v f="$format" '{printf "%s: wall %.2f s (%.0fx real time), CPU %.2f s\n", f, $1, 150 / $1, $2 + $3}' "$work/th"
     done
     ;;
+instructions)
+    dir=${1:?instructions DIR}
+    for n in 1 3; do
+        valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg$n" \
+            "$bin" run "$(scenario "$dir" $n none)" --out "$work/o$n" --force \
+            >/dev/null 2>"$work/vg$n"
+    done
+    ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
+    printf '%s: %d instructions per trial\n' "$dir" $((($(ir "$work/vg3") - $(ir "$work/vg1")) / 2))
+    ;;
 *)
-    echo "unknown mode $mode: trial, floor or hlcs" >&2
+    echo "unknown mode $mode: trial, floor, hlcs or instructions" >&2
     exit 2
     ;;
 esac

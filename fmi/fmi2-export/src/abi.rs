@@ -437,7 +437,9 @@ unsafe fn get_values<M: Model, T>(
 /// Shared body of the typed setters: every value reference is checked (declared, right
 /// type, settable in this state) and every value against the variable's declared
 /// `min`/`max` (`numeric` gives the value as a number; `None` for Booleans) before the
-/// first value is written, so a refused call changes nothing.
+/// first value is written, so a refused call changes nothing. `write` gets the whole batch:
+/// Reals go to [`Model::set_reals`], which for a `values_model!` FMU also refuses NaN and
+/// infinities before writing any value.
 ///
 /// # Safety
 /// See the module's safety contract.
