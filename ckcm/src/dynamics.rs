@@ -331,7 +331,7 @@ impl Mechanism {
 /// profiles the generic factorisation plus its two triangular solves was the largest single
 /// cost of a forward-dynamics evaluation after the Newton–Euler bias. Each column is its own
 /// const-generic call so every loop unrolls completely: as plain nested loops the outer one
-/// stayed a loop and the FMI-free trial took 7 % more CPU (BENCHMARKS.md, round 7). Split
+/// stayed a loop and the FMI-free trial took 7–8 % more CPU (BENCHMARKS.md, round 7). Split
 /// into factor and solve so the caller can put independent work between them.
 struct Cholesky6 {
     /// L column by column: `lt[k][i]` = L_ik, so one column's rows are contiguous and the

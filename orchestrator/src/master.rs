@@ -95,7 +95,7 @@ struct Wiring {
 
 /// `len` consecutive bus slots from `slot` copied to the recording columns from `column`:
 /// an array variable's elements are one run, copied as one slice rather than element by
-/// element (about 1 % of a coupled trial).
+/// element (BENCHMARKS.md, round 7).
 #[derive(Debug, Clone, Copy)]
 struct Run {
     slot: usize,

@@ -125,7 +125,8 @@ impl Values {
     #[inline]
     pub fn set_real6(&mut self, first: u32, values: &[f64; 6]) {
         let start = first as usize;
-        // One bounds check and one copy instead of six (about 1 % of a coupled trial).
+        // One bounds check and one copy instead of six: about 0.9 % of a trial's
+        // instructions (BENCHMARKS.md, round 7).
         if let Some(slots) = self.reals.get_mut(start..start + 6) {
             slots.copy_from_slice(values);
         } else {
