@@ -85,7 +85,8 @@ struct Wiring {
     bus_range: Range<usize>,
     /// Real inputs set before every step.
     in_vrs: Vec<u32>,
-    in_src: Vec<Source>,
+    /// Where each input's value comes from, as runs over `in_buf`.
+    in_runs: Vec<InRun>,
     in_buf: Vec<f64>,
     /// Bus slots copied into recording columns before the step (values at t_n).
     record_before: Vec<Run>,
@@ -93,9 +94,9 @@ struct Wiring {
     record_after: Vec<Run>,
 }
 
-/// `len` consecutive bus slots from `slot` copied to the recording columns from `column`:
-/// an array variable's elements are one run, copied as one slice rather than element by
-/// element (BENCHMARKS.md, round 7).
+/// `len` consecutive bus slots from `slot` copied to a row (the recording columns, or a
+/// memory channel's elements) from `column`: an array variable's elements are one run,
+/// copied as one slice rather than element by element (BENCHMARKS.md, round 7).
 #[derive(Debug, Clone, Copy)]
 struct Run {
     slot: usize,
@@ -118,23 +119,70 @@ impl Run {
 
     fn copy(runs: &[Run], bus: &[f64], row: &mut [f64]) {
         for r in runs {
-            row[r.column..r.column + r.len].copy_from_slice(&bus[r.slot..r.slot + r.len]);
+            copy_run(
+                &mut row[r.column..r.column + r.len],
+                &bus[r.slot..r.slot + r.len],
+            );
         }
     }
 }
 
-#[derive(Debug, Clone, Copy)]
+/// Copies one run: the six elements of a leg array as one fixed-size copy (no `memcpy`
+/// call, which costs more than the copy at this size), anything else as a slice.
+#[inline]
+fn copy_run(dst: &mut [f64], src: &[f64]) {
+    match (
+        <&mut [f64; 6]>::try_from(&mut *dst),
+        <&[f64; 6]>::try_from(src),
+    ) {
+        (Ok(d), Ok(s)) => *d = *s,
+        _ => dst.copy_from_slice(src),
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Source {
     Bus(usize),
     /// Memory channel, element.
     Memory(usize, usize),
 }
 
+impl Source {
+    /// The source `k` places further on.
+    fn offset(self, k: usize) -> Self {
+        match self {
+            Source::Bus(s) => Source::Bus(s + k),
+            Source::Memory(c, i) => Source::Memory(c, i + k),
+        }
+    }
+}
+
+/// Inputs `at..at + len` of an FMU's `in_buf`, filled from `len` consecutive bus slots or
+/// elements of one memory channel: a connected array variable is one slice copy per step
+/// rather than one match per scalar.
+#[derive(Debug, Clone, Copy)]
+struct InRun {
+    at: usize,
+    src: Source,
+    len: usize,
+}
+
+impl InRun {
+    /// Appends input `at` ← `src`, extending the last run when both continue it.
+    fn push(runs: &mut Vec<InRun>, at: usize, src: Source) {
+        match runs.last_mut() {
+            Some(r) if r.at + r.len == at && r.src.offset(r.len) == src => r.len += 1,
+            _ => runs.push(InRun { at, src, len: 1 }),
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Channel {
     width: usize,
-    /// Bus slots of the producing output, read after the producer's step.
-    from_slots: Vec<usize>,
+    /// Bus slots of the producing output, read after the producer's step, as runs onto
+    /// the channel's elements.
+    from_runs: Vec<Run>,
     /// FMU whose step produces the values.
     producer: usize,
     read: Vec<f64>,
@@ -243,7 +291,7 @@ impl<'s> Master<'s> {
                 out_vrs: vrs,
                 bus_range: range,
                 in_vrs: Vec::new(),
-                in_src: Vec::new(),
+                in_runs: Vec::new(),
                 in_buf: Vec::new(),
                 record_before: Vec::new(),
                 record_after: Vec::new(),
@@ -261,8 +309,8 @@ impl<'s> Master<'s> {
             for (i, &vr) in l.to.value_references.iter().enumerate() {
                 let s = slot(&wiring, l.from.fmu, l.from.value_references[i]);
                 let w = &mut wiring[l.to.fmu];
+                InRun::push(&mut w.in_runs, w.in_vrs.len(), Source::Bus(s));
                 w.in_vrs.push(vr);
-                w.in_src.push(Source::Bus(s));
             }
         }
         let steps = scenario.steps;
@@ -270,16 +318,14 @@ impl<'s> Master<'s> {
         for (c, m) in scenario.memory.iter().enumerate() {
             let l = &m.link;
             let width = l.from.value_references.len();
-            let from_slots = l
-                .from
-                .value_references
-                .iter()
-                .map(|&vr| slot(&wiring, l.from.fmu, vr))
-                .collect();
+            let mut from_runs = Vec::new();
+            for (i, &vr) in l.from.value_references.iter().enumerate() {
+                Run::push(&mut from_runs, slot(&wiring, l.from.fmu, vr), i);
+            }
             for (i, &vr) in l.to.value_references.iter().enumerate() {
                 let w = &mut wiring[l.to.fmu];
+                InRun::push(&mut w.in_runs, w.in_vrs.len(), Source::Memory(c, i));
                 w.in_vrs.push(vr);
-                w.in_src.push(Source::Memory(c, i));
             }
             let update = match m.update {
                 None => None,
@@ -294,7 +340,7 @@ impl<'s> Master<'s> {
             };
             channels.push(Channel {
                 width,
-                from_slots,
+                from_runs,
                 producer: l.from.fmu,
                 read: vec![0.0; steps * width],
                 write: vec![0.0; steps * width],
@@ -465,14 +511,16 @@ impl<'s> Master<'s> {
                 let w = &mut self.wiring[k];
                 Run::copy(&w.record_before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
-                    for (dst, src) in w.in_buf.iter_mut().zip(&w.in_src) {
-                        *dst = match *src {
-                            Source::Bus(s) => self.bus[s],
+                    for r in &w.in_runs {
+                        let dst = &mut w.in_buf[r.at..r.at + r.len];
+                        match r.src {
+                            Source::Bus(s) => copy_run(dst, &self.bus[s..s + r.len]),
                             Source::Memory(c, i) => {
                                 let ch = &self.channels[c];
-                                ch.read[n * ch.width + i]
+                                let from = n * ch.width + i;
+                                copy_run(dst, &ch.read[from..from + r.len]);
                             }
-                        };
+                        }
                     }
                     let inst = &mut self.instances[k];
                     inst.set_real(&w.in_vrs, &w.in_buf)
@@ -527,9 +575,7 @@ impl<'s> Master<'s> {
                 Run::copy(&w.record_after, &self.bus, &mut self.row);
                 for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
                     let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];
-                    for (d, &s) in dst.iter_mut().zip(&ch.from_slots) {
-                        *d = self.bus[s];
-                    }
+                    Run::copy(&ch.from_runs, &self.bus, dst);
                 }
             }
             let ncols = self.column_names.len();

@@ -39,7 +39,7 @@ use fmi2_sys::{
     Fmi2CallbackFunctions, Fmi2Component, Fmi2FmuState, Fmi2Integer, Fmi2Real, Fmi2Status,
     Fmi2StatusKind, Fmi2String, Fmi2Type, Fmi2ValueReference, Status, TYPES_PLATFORM, status_kind,
 };
-use fmu_core::{Model, VarType};
+use fmu_core::{Model, VarType, VrRun};
 
 /// The text of a panic payload (`&str` or `String`, as `panic!` produces).
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> &str {
@@ -100,6 +100,7 @@ unsafe fn guard<M: Model>(
 ///
 /// # Safety
 /// `ptr` is NULL or valid for reading `n` elements for `'a`.
+#[inline]
 unsafe fn input<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
     if n == 0 {
         return Ok(&[]);
@@ -114,6 +115,7 @@ unsafe fn input<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], F
 ///
 /// # Safety
 /// `ptr` is NULL or valid for writing `n` elements for `'a`, aliased by nothing else.
+#[inline]
 unsafe fn output<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T], Failure> {
     if n == 0 {
         return Ok(&mut []);
@@ -123,21 +125,25 @@ unsafe fn output<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T]
     Ok(unsafe { std::slice::from_raw_parts_mut(ptr, n) })
 }
 
+/// Inlined, the accepted case is three comparisons; the messages are built out of line.
+#[inline]
 fn check_array<T>(ptr: *const T, n: usize, what: &str) -> Result<(), Failure> {
-    if ptr.is_null() {
-        return Err(Failure::error(format!(
-            "argument {what} is NULL but its length is {n}"
-        )));
-    }
-    if !ptr.is_aligned() {
-        return Err(Failure::error(format!("argument {what} is misaligned")));
-    }
-    if n > isize::MAX as usize / size_of::<T>().max(1) {
-        return Err(Failure::error(format!(
-            "argument {what} has an impossible length {n}"
-        )));
+    if ptr.is_null() || !ptr.is_aligned() || n > isize::MAX as usize / size_of::<T>().max(1) {
+        return Err(bad_array(ptr, n, what));
     }
     Ok(())
+}
+
+#[cold]
+#[inline(never)]
+fn bad_array<T>(ptr: *const T, n: usize, what: &str) -> Failure {
+    Failure::error(if ptr.is_null() {
+        format!("argument {what} is NULL but its length is {n}")
+    } else if !ptr.is_aligned() {
+        format!("argument {what} is misaligned")
+    } else {
+        format!("argument {what} has an impossible length {n}")
+    })
 }
 
 /// A single-value out-pointer as a reference (NULL and misalignment refused).
@@ -404,6 +410,7 @@ pub unsafe fn reset<M: Model>(c: Fmi2Component) -> Fmi2Status {
 
 /// Shared body of the typed getters: all value references are checked before any value
 /// is read; in InitializationMode `initialize` is re-run first if something was set.
+/// `read` fills the whole batch, given the batch's runs of consecutive value references.
 ///
 /// # Safety
 /// See the module's safety contract.
@@ -414,7 +421,7 @@ unsafe fn get_values<M: Model, T>(
     vr: *const Fmi2ValueReference,
     nvr: usize,
     value: *mut T,
-    read: impl Fn(&M, u32) -> T,
+    read: impl Fn(&M, &[u32], &[VrRun], &mut [T]),
 ) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
         // SAFETY: NULL or valid for `nvr` elements (module contract).
@@ -425,9 +432,8 @@ unsafe fn get_values<M: Model, T>(
         if nvr > 0 {
             inst.refresh_if_dirty()?;
         }
-        for (o, &r) in out.iter_mut().zip(vrs) {
-            *o = read(&inst.model, r);
-        }
+        let (model, runs) = inst.model_and_runs(access, false);
+        read(model, vrs, runs, out);
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.
@@ -452,7 +458,7 @@ unsafe fn set_values<M: Model, T: Copy>(
     nvr: usize,
     value: *const T,
     numeric: fn(T) -> Option<f64>,
-    write: impl Fn(&mut M, &[u32], &[T]) -> fmu_core::ModelResult<()>,
+    write: impl Fn(&mut M, &[u32], &[VrRun], &[T]) -> fmu_core::ModelResult<()>,
 ) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
         // SAFETY: NULL or valid for `nvr` elements (module contract).
@@ -470,11 +476,21 @@ unsafe fn set_values<M: Model, T: Copy>(
         if nvr > 0 {
             inst.glue.dirty = true;
         }
-        write(&mut inst.model, vrs, values)?;
+        let (model, runs) = inst.model_and_runs(access, true);
+        write(model, vrs, runs, values)?;
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.
     unsafe { guard(c, function, body) }
+}
+
+/// A batch reader from a reader of one value.
+fn each<M, T>(read: impl Fn(&M, u32) -> T) -> impl Fn(&M, &[u32], &[VrRun], &mut [T]) {
+    move |m, vrs, _, out| {
+        for (o, &r) in out.iter_mut().zip(vrs) {
+            *o = read(m, r);
+        }
+    }
 }
 
 /// fmi2GetReal.
@@ -496,7 +512,7 @@ pub unsafe fn get_real<M: Model>(
             vr,
             nvr,
             value,
-            M::get_real,
+            M::get_reals,
         )
     }
 }
@@ -520,7 +536,7 @@ pub unsafe fn get_integer<M: Model>(
             vr,
             nvr,
             value,
-            M::get_integer,
+            each(M::get_integer),
         )
     }
 }
@@ -535,7 +551,7 @@ pub unsafe fn get_boolean<M: Model>(
     nvr: usize,
     value: *mut Fmi2Boolean,
 ) -> Fmi2Status {
-    let read = |m: &M, r: u32| to_fmi_bool(m.get_boolean(r));
+    let read = each(|m: &M, r: u32| to_fmi_bool(m.get_boolean(r)));
     // SAFETY: forwarded module contract.
     unsafe {
         get_values(
@@ -631,7 +647,7 @@ pub unsafe fn set_integer<M: Model>(
             nvr,
             value,
             |x| Some(f64::from(x)),
-            |m: &mut M, vrs: &[u32], values: &[Fmi2Integer]| {
+            |m: &mut M, vrs: &[u32], _: &[VrRun], values: &[Fmi2Integer]| {
                 vrs.iter()
                     .zip(values)
                     .try_for_each(|(&r, &v)| m.set_integer(r, v))
@@ -650,7 +666,7 @@ pub unsafe fn set_boolean<M: Model>(
     nvr: usize,
     value: *const Fmi2Boolean,
 ) -> Fmi2Status {
-    let write = |m: &mut M, vrs: &[u32], values: &[Fmi2Boolean]| {
+    let write = |m: &mut M, vrs: &[u32], _: &[VrRun], values: &[Fmi2Boolean]| {
         vrs.iter()
             .zip(values)
             .try_for_each(|(&r, &v)| m.set_boolean(r, fmi_bool(v)))

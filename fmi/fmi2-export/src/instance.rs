@@ -7,7 +7,7 @@ use std::ffi::{CStr, CString, c_void};
 
 use crate::state::{FmiState, Function};
 use fmi2_sys::{Fmi2ComponentEnvironment, Fmi2Status, Fmi2String, Status};
-use fmu_core::{Causality, Model, ModelError, Severity, VarSpec, VarType, Variability};
+use fmu_core::{Causality, Model, ModelError, Severity, VarSpec, VarType, Variability, VrRun};
 
 /// Log categories of every FMU built on this glue, as the logger callback receives them,
 /// indexed by [`category_of`]. Each model description must declare exactly these names in
@@ -274,6 +274,8 @@ struct Accepted {
     ranged: bool,
     vrs: Vec<u32>,
     specs: Vec<&'static VarSpec>,
+    /// `vrs` cut into runs of consecutive value references.
+    runs: Vec<VrRun>,
     state: Option<FmiState>,
 }
 
@@ -456,6 +458,7 @@ impl<M: Model> Instance<M> {
     /// The accepted array is remembered per function, and the same array in a later call
     /// (in the same state, for a setter) is accepted by one comparison. The buffers are
     /// reused, so once they have grown a call allocates nothing.
+    #[inline]
     pub(crate) fn accept(
         &mut self,
         function: Function,
@@ -467,32 +470,59 @@ impl<M: Model> Instance<M> {
         let (k, j) = (access as usize, usize::from(setter));
         let last = &self.accepted[k][j];
         if !(last.valid && last.state == state && last.vrs == vrs) {
-            let mut entry = std::mem::take(&mut self.accepted[k][j]);
-            entry.valid = false;
-            entry.specs.clear();
-            let checked: Result<(), Failure> = vrs.iter().try_for_each(|&r| {
-                let spec = self.lookup(function, access, r)?;
-                if setter {
-                    self.check_settable(spec)?;
-                }
-                entry.specs.push(spec);
-                Ok(())
-            });
-            if checked.is_ok() {
-                entry.ranged = entry
-                    .specs
-                    .iter()
-                    .any(|v| v.min.is_some() || v.max.is_some());
-                entry.vrs.clear();
-                entry.vrs.extend_from_slice(vrs);
-                entry.state = state;
-                entry.valid = true;
-            }
-            self.accepted[k][j] = entry;
-            checked?;
+            self.accept_new(function, access, setter, vrs)?;
         }
         let entry = &self.accepted[k][j];
         Ok((&entry.specs, entry.ranged))
+    }
+
+    /// [`Instance::accept`] for an array that differs from the last accepted one: checks
+    /// each value reference and remembers the array. Out of line, so the per-step path
+    /// (the same array again) stays a comparison inlined into each getter and setter.
+    #[inline(never)]
+    fn accept_new(
+        &mut self,
+        function: Function,
+        access: Access,
+        setter: bool,
+        vrs: &[u32],
+    ) -> Result<(), Failure> {
+        let state = setter.then_some(self.glue.state);
+        let (k, j) = (access as usize, usize::from(setter));
+        let mut entry = std::mem::take(&mut self.accepted[k][j]);
+        entry.valid = false;
+        entry.specs.clear();
+        let checked: Result<(), Failure> = vrs.iter().try_for_each(|&r| {
+            let spec = self.lookup(function, access, r)?;
+            if setter {
+                self.check_settable(spec)?;
+            }
+            entry.specs.push(spec);
+            Ok(())
+        });
+        if checked.is_ok() {
+            entry.ranged = entry
+                .specs
+                .iter()
+                .any(|v| v.min.is_some() || v.max.is_some());
+            entry.vrs.clear();
+            entry.vrs.extend_from_slice(vrs);
+            VrRun::split(vrs, &mut entry.runs);
+            entry.state = state;
+            entry.valid = true;
+        }
+        self.accepted[k][j] = entry;
+        checked
+    }
+
+    /// The model, and the runs of the array a getter (`setter == false`) or setter of
+    /// `access` accepted last; only meaningful right after [`Instance::accept`] succeeded
+    /// for that array.
+    pub(crate) fn model_and_runs(&mut self, access: Access, setter: bool) -> (&mut M, &[VrRun]) {
+        (
+            &mut self.model,
+            &self.accepted[access as usize][usize::from(setter)].runs,
+        )
     }
 
     /// Checks that `spec` may be set in the current state (FMI 2.0 CS rules). The state

@@ -117,6 +117,38 @@ impl ModelError {
 /// Result of a model operation.
 pub type ModelResult<T> = Result<T, ModelError>;
 
+/// `vrs[at..at + len] == first..first + len` in a batch of value references: the elements
+/// of an array variable, which masters pass in order. The glue cuts each batch it accepts
+/// into runs once and reuses them while the master passes the same batch, so a model that
+/// stores its values by value reference copies a run as one slice rather than looking up
+/// each scalar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VrRun {
+    /// Index of the run's first element in the batch.
+    pub at: usize,
+    /// Its value reference.
+    pub first: u32,
+    /// Number of elements.
+    pub len: usize,
+}
+
+impl VrRun {
+    /// `vrs` cut into maximal runs, into `runs` (cleared first; its buffer is reused).
+    pub fn split(vrs: &[u32], runs: &mut Vec<VrRun>) {
+        runs.clear();
+        for (at, &vr) in vrs.iter().enumerate() {
+            match runs.last_mut() {
+                Some(r) if r.first.checked_add(r.len as u32) == Some(vr) => r.len += 1,
+                _ => runs.push(VrRun {
+                    at,
+                    first: vr,
+                    len: 1,
+                }),
+            }
+        }
+    }
+}
+
 /// A co-simulation model behind the FMI 2.0 C ABI.
 ///
 /// `Clone` backs fmi2GetFMUstate/fmi2SetFMUstate; `save`/`restore` back the
@@ -136,13 +168,24 @@ pub trait Model: Clone + Send + 'static {
 
     /// Reads a Real (only called with a declared Real value reference).
     fn get_real(&self, vr: u32) -> f64;
+    /// Reads one fmi2GetReal call's values into `out`; `runs` is `vrs` cut by
+    /// [`VrRun::split`]. The default reads them one by one; [`values_model!`] copies each
+    /// run as one slice.
+    fn get_reals(&self, vrs: &[u32], runs: &[VrRun], out: &mut [f64]) {
+        let _ = runs;
+        for (o, &vr) in out.iter_mut().zip(vrs) {
+            *o = self.get_real(vr);
+        }
+    }
     /// Writes a Real (only called where its causality/variability allows it in the current
     /// state). Rejects invalid values, e.g. non-finite inputs, with a message naming the variable.
     fn set_real(&mut self, vr: u32, value: f64) -> ModelResult<()>;
-    /// Writes one fmi2SetReal call's values, each checked as by `set_real`. The default
-    /// writes them one by one; [`values_model!`] checks the whole batch first, so a refused
-    /// call writes nothing and an accepted one costs a scan and a copy per value.
-    fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> ModelResult<()> {
+    /// Writes one fmi2SetReal call's values, each checked as by `set_real`; `runs` is `vrs`
+    /// cut by [`VrRun::split`]. The default writes them one by one; [`values_model!`]
+    /// checks the whole batch first, so a refused call writes nothing, and then copies each
+    /// run as one slice.
+    fn set_reals(&mut self, vrs: &[u32], runs: &[VrRun], values: &[f64]) -> ModelResult<()> {
+        let _ = runs;
         vrs.iter()
             .zip(values)
             .try_for_each(|(&vr, &value)| self.set_real(vr, value))
@@ -223,8 +266,18 @@ macro_rules! values_model {
             self.$values.set_finite_real($md::VARIABLES, vr, value)
         }
 
-        fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> $crate::ModelResult<()> {
-            self.$values.set_finite_reals($md::VARIABLES, vrs, values)
+        fn get_reals(&self, vrs: &[u32], runs: &[$crate::VrRun], out: &mut [f64]) {
+            self.$values.reals_into(vrs, runs, out)
+        }
+
+        fn set_reals(
+            &mut self,
+            vrs: &[u32],
+            runs: &[$crate::VrRun],
+            values: &[f64],
+        ) -> $crate::ModelResult<()> {
+            self.$values
+                .set_finite_reals($md::VARIABLES, vrs, runs, values)
         }
 
         fn get_integer(&self, vr: u32) -> i32 {
