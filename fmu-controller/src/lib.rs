@@ -215,30 +215,21 @@ impl HlcsController {
             ))
         })?;
         // Never hand non-finite commands on with fmi2OK: the plant would then blame its own
-        // input. The first non-finite output is named with the time.
+        // input. The first non-finite output is named with the time. One branch-free scan
+        // per step; the culprit is looked up only on failure.
         let outputs = [
             ("force", &out.force),
             ("memory_next", &out.memory_next),
             ("length_ref", &out.length_ref),
             ("error", &out.error),
         ];
-        for (name, v) in outputs {
-            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                return Err(ModelError::error(format!(
-                    "control law failed at t = {t} s: output {name}[{}] = {} is not finite \
-                     (inputs length = {:?} m, memory = {:?} N)",
-                    i + 1,
-                    v[i],
-                    input.length.as_slice(),
-                    input.memory.as_slice()
-                )));
-            }
-        }
-        if !integral.iter().all(|x| x.is_finite()) {
-            return Err(ModelError::error(format!(
-                "control law failed at t = {t} s: the error integral {:?} is not finite",
-                integral.as_slice()
-            )));
+        let finite = outputs
+            .iter()
+            .map(|(_, v)| *v)
+            .chain([&integral])
+            .fold(true, |ok, v| v.iter().fold(ok, |ok, x| ok & x.is_finite()));
+        if !finite {
+            return Err(not_finite_output(t, &outputs, &integral, &input));
         }
         if commit {
             sim.law.integral = integral;
@@ -249,6 +240,34 @@ impl HlcsController {
         values.set_real6(vr::ERROR_1, &out.error.into());
         Ok(())
     }
+}
+
+/// The error for the first non-finite value of `outputs`, else of `integral`, at `t`.
+#[cold]
+fn not_finite_output(
+    t: f64,
+    outputs: &[(&str, &Vector6<f64>)],
+    integral: &Vector6<f64>,
+    input: &ControlInput,
+) -> ModelError {
+    let culprit = outputs.iter().find_map(|(name, v)| {
+        v.iter()
+            .position(|x| !x.is_finite())
+            .map(|i| (*name, i, v[i]))
+    });
+    ModelError::error(match culprit {
+        Some((name, i, x)) => format!(
+            "control law failed at t = {t} s: output {name}[{}] = {x} is not finite \
+             (inputs length = {:?} m, memory = {:?} N)",
+            i + 1,
+            input.length.as_slice(),
+            input.memory.as_slice()
+        ),
+        None => format!(
+            "control law failed at t = {t} s: the error integral {:?} is not finite",
+            integral.as_slice()
+        ),
+    })
 }
 
 impl Model for HlcsController {
