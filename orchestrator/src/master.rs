@@ -128,7 +128,7 @@ impl Run {
 }
 
 /// Copies one run: the six elements of a leg array as one fixed-size copy (no `memcpy`
-/// call, which costs more than the copy at this size), anything else as a slice.
+/// call), anything else as a slice.
 #[inline]
 fn copy_run(dst: &mut [f64], src: &[f64]) {
     match (
