@@ -119,24 +119,8 @@ impl Run {
 
     fn copy(runs: &[Run], bus: &[f64], row: &mut [f64]) {
         for r in runs {
-            copy_run(
-                &mut row[r.column..r.column + r.len],
-                &bus[r.slot..r.slot + r.len],
-            );
+            row[r.column..r.column + r.len].copy_from_slice(&bus[r.slot..r.slot + r.len]);
         }
-    }
-}
-
-/// Copies one run: the six elements of a leg array as one fixed-size copy (no `memcpy`
-/// call), anything else as a slice.
-#[inline]
-fn copy_run(dst: &mut [f64], src: &[f64]) {
-    match (
-        <&mut [f64; 6]>::try_from(&mut *dst),
-        <&[f64; 6]>::try_from(src),
-    ) {
-        (Ok(d), Ok(s)) => *d = *s,
-        _ => dst.copy_from_slice(src),
     }
 }
 
@@ -514,11 +498,11 @@ impl<'s> Master<'s> {
                     for r in &w.in_runs {
                         let dst = &mut w.in_buf[r.at..r.at + r.len];
                         match r.src {
-                            Source::Bus(s) => copy_run(dst, &self.bus[s..s + r.len]),
+                            Source::Bus(s) => dst.copy_from_slice(&self.bus[s..s + r.len]),
                             Source::Memory(c, i) => {
                                 let ch = &self.channels[c];
                                 let from = n * ch.width + i;
-                                copy_run(dst, &ch.read[from..from + r.len]);
+                                dst.copy_from_slice(&ch.read[from..from + r.len]);
                             }
                         }
                     }
