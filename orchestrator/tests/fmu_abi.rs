@@ -186,6 +186,54 @@ fn a_refused_batch_writes_nothing() {
     assert_eq!(now, [1.0; 6]);
 }
 
+/// The glue copies runs of consecutive value references as slices, cut once per accepted
+/// array: batches in any order, with repeats, and one after another on the same instance
+/// read and write exactly what one value per call does.
+#[test]
+fn batches_agree_with_one_value_per_call() {
+    let plant = fmu("CkcmPlant.fmu");
+    let (force, pose, length) = (
+        vrs(&plant, "force"),
+        vrs(&plant, "pose"),
+        vrs(&plant, "length"),
+    );
+    let mut a = plant.instantiate("a", false).unwrap();
+    start(&mut a, &[]);
+    let order = [3, 4, 5, 0, 1, 2];
+    let shuffled: Vec<u32> = order.iter().map(|&i| force[i]).collect();
+    let f = [
+        HOLD + 1.0,
+        HOLD + 2.0,
+        HOLD + 3.0,
+        HOLD - 1.0,
+        HOLD - 2.0,
+        HOLD - 3.0,
+    ];
+    a.set_real(&shuffled, &f).unwrap();
+    for (&i, &x) in order.iter().zip(&f) {
+        let mut one = [0.0];
+        a.get_real(&force[i..=i], &mut one).unwrap();
+        assert_eq!(one[0], x, "force[{}]", i + 1);
+    }
+    a.do_step(0.0, 1e-3, true).unwrap();
+    let reversed: Vec<u32> = length.iter().rev().copied().collect();
+    let repeated = [length[2], length[2], length[3], pose[0], pose[1], length[3]];
+    let joined: Vec<u32> = pose.iter().chain(&length).copied().collect();
+    for batch in [&joined[..], &reversed, &repeated, &pose, &joined] {
+        let mut got = vec![f64::NAN; batch.len()];
+        a.get_real(batch, &mut got).unwrap();
+        let one_by_one: Vec<f64> = batch
+            .iter()
+            .map(|&v| {
+                let mut one = [f64::NAN];
+                a.get_real(&[v], &mut one).unwrap();
+                one[0]
+            })
+            .collect();
+        assert_eq!(got, one_by_one, "{batch:?}");
+    }
+}
+
 #[test]
 fn diverging_plant_is_an_error_never_nan_outputs() {
     let plant = fmu("CkcmPlant.fmu");
