@@ -60,6 +60,12 @@ pub struct RunArgs {
     /// (default: the scenario's `memory_limit_mib`, else 4096).
     #[arg(long, value_name = "MIB")]
     pub memory_limit_mib: Option<u64>,
+    /// Trials run at the same time: 2 runs trial k+1 on a second core a few milliseconds
+    /// of simulated time behind trial k, when every memory channel has the plain update
+    /// (default: 2 on a machine with two or more cores; 1 runs one trial after the other).
+    /// Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
     /// Stop after this many trials in total, as if interrupted (for testing resume).
     #[arg(long, hide = true)]
     pub stop_after: Option<usize>,

@@ -18,10 +18,12 @@
 //! succeeded; `--resume` removes what a killed run left half-done (temporary files, memory
 //! files of trials that `progress.toml` does not claim) and finishes every file.
 
+mod lanes;
 mod lock;
 
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
 use clap::ValueEnum;
@@ -72,6 +74,12 @@ pub enum CampaignError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error("cannot open a second copy of FMU {fmu:?} ({}) for the second lane: {source}", path.display())]
+    SecondCopy {
+        fmu: String,
+        path: PathBuf,
+        source: Box<fmi2_import::ImportError>,
+    },
 }
 
 /// Default of [`CampaignOptions::memory_limit_mib`] and of the scenario key
@@ -99,6 +107,10 @@ pub struct CampaignOptions {
     /// Abort the process (no clean-up, like SIGKILL) at the n-th file operation, counting
     /// from 1: for tests that interrupt a campaign at every point.
     pub crash_at: Option<usize>,
+    /// Trials run at the same time: 2 runs trial k+1 on a second core a chunk of steps
+    /// behind trial k when every memory channel has the plain update (`lanes`); anything
+    /// else runs one trial after the other. Results do not depend on it.
+    pub lanes: usize,
 }
 
 /// Metrics of one trial.
@@ -515,6 +527,15 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
     Ok(())
 }
 
+/// Sets the flag that stops the lanes when dropped.
+struct StopLanes<'a>(&'a AtomicBool);
+
+impl Drop for StopLanes<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
 /// The thread writing and committing one trial's files; it hands back the crash counter
 /// and the recording buffer, if the trial was recorded.
 type TrialWriter<'scope> =
@@ -536,9 +557,10 @@ pub fn run_campaign(
         at: opts.crash_at,
         count: 0,
     };
-    let mut master = Master::new(scenario, fmus, opts.fmu_logging)?;
     let mut summaries: Vec<TrialSummary> = Vec::new();
     let mut first = 0;
+    // The memory trial `first` reads, when resuming after a completed trial.
+    let mut initial: Option<Vec<Vec<f64>>> = None;
     let progress_file = dir.join("progress.toml");
     let resuming = opts.resume && progress_file.exists();
     if resuming {
@@ -571,8 +593,7 @@ pub fn run_campaign(
                 .iter()
                 .map(|m| scenario.steps * m.link.from.value_references.len())
                 .collect();
-            let data = read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?;
-            master.set_memory(&data);
+            initial = Some(read_memory(&memory_file(dir, first - 1), &lens).map_err(resume_err)?);
         }
         remove_leftovers(dir, first)?;
     } else if !opts.resume && !opts.force {
@@ -606,9 +627,39 @@ pub fn run_campaign(
     } else {
         ProgressBar::hidden()
     };
-    let mut recording: Recording = master.new_recording();
-    let mut signals = master.new_signals();
-    let memory_names = master.memory_names();
+    let use_lanes = opts.lanes >= 2 && Master::memory_is_plain(scenario) && last >= first + 2;
+    // One lane: this thread's master runs every trial. Two: the lanes open their own
+    // masters below and this thread only persists their outcomes.
+    let (mut master, second) = if use_lanes {
+        let second = scenario
+            .fmus
+            .iter()
+            .map(|f| {
+                Fmu::open(&f.path).map_err(|e| CampaignError::SecondCopy {
+                    fmu: f.name.clone(),
+                    path: f.path.clone(),
+                    source: Box::new(e),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        (None, Some((fmus, second)))
+    } else {
+        let mut m = Master::new(scenario, fmus, opts.fmu_logging)?;
+        if let Some(data) = &initial {
+            m.set_memory(data);
+        }
+        (Some(m), None)
+    };
+    let mut recording: Option<Recording> = master.as_ref().map(Master::new_recording);
+    let mut signals = master.as_ref().map(Master::new_signals);
+    let memory_names: Vec<String> = scenario
+        .memory
+        .iter()
+        .flat_map(|m| m.link.from.names.iter().cloned())
+        .collect();
+    // The memory the last trial run wrote (two lanes), for memory.csv.
+    let mut last_memory: Option<Vec<Vec<f64>>> = None;
+    let abort = AtomicBool::new(false);
     let header = summary_header();
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
     // Trial j is committed (summary.csv, progress.toml, the previous memory file removed),
@@ -632,6 +683,23 @@ pub fn run_campaign(
     };
     let format = scenario.record.format;
     std::thread::scope(|scope| {
+        // However this closure returns, lanes still running (after a failure) stop at their
+        // next chunk before the scope waits for them.
+        let _stop = StopLanes(&abort);
+        let mut lanes = match second {
+            Some((fmus, second)) => Some(lanes::Lanes::start(
+                scope,
+                scenario,
+                fmus,
+                second,
+                opts.fmu_logging,
+                (first, last),
+                initial.as_deref(),
+                &bar,
+                &abort,
+            )?),
+            None => None,
+        };
         // The thread writing the last trial's files, and the recording buffer it does not hold.
         let mut pending: Option<TrialWriter<'_>> = None;
         let mut spare: Option<Recording> = None;
@@ -652,16 +720,21 @@ pub fn run_campaign(
         };
         for k in first..last {
             bar.set_message(format!("trial {k}/{}", scenario.trials - 1));
-            let rec = scenario.record.records_trial(k).then_some(&mut recording);
-            let record_this = rec.is_some();
-            let ran = master.run_trial(k, rec, &mut signals, |n| {
-                if n % 1000 == 999 {
-                    bar.inc(1000);
-                }
-            });
+            let record_this = scenario.record.records_trial(k);
+            let ran = match (&mut master, &mut lanes, &mut recording, &mut signals) {
+                (Some(master), _, Some(recording), Some(signals)) => master
+                    .run_trial(k, record_this.then_some(recording), signals, |n| {
+                        if n % 1000 == 999 {
+                            bar.inc(1000);
+                        }
+                    })
+                    .map(|()| None),
+                (_, Some(lanes), ..) => lanes.next(k).map(Some),
+                _ => unreachable!("one lane has a master, two have lanes"),
+            };
             // The trial before succeeded: it is kept either way.
             finish(&mut pending, &mut spare, &mut crash)?;
-            ran?;
+            let from_lane = ran?;
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
                 remove_campaign(dir)?;
@@ -679,13 +752,25 @@ pub fn run_campaign(
                 })?;
                 crash.tick();
             }
-            let memory = memory_bytes(&master.memory());
-            summaries.push(TrialSummary::compute(k, scenario, &signals));
+            let (memory, full) = match (from_lane, &master, &mut recording, &signals) {
+                (Some(done), ..) => {
+                    summaries.push(done.summary);
+                    let slices: Vec<&[f64]> = done.memory.iter().map(Vec::as_slice).collect();
+                    let memory = memory_bytes(&slices);
+                    last_memory = Some(done.memory);
+                    (memory, done.recording)
+                }
+                (None, Some(master), Some(recording), Some(signals)) => {
+                    summaries.push(TrialSummary::compute(k, scenario, signals));
+                    let full = record_this.then(|| {
+                        let next = spare.take().unwrap_or_else(|| master.new_recording());
+                        std::mem::replace(recording, next)
+                    });
+                    (memory_bytes(&master.memory()), full)
+                }
+                _ => unreachable!("a trial ran on a lane or on the master"),
+            };
             let committed = summaries.clone();
-            let full = record_this.then(|| {
-                let next = spare.take().unwrap_or_else(|| master.new_recording());
-                std::mem::replace(&mut recording, next)
-            });
             let mut counter = crash;
             let commit = &commit;
             pending = Some(scope.spawn(move || {
@@ -709,7 +794,11 @@ pub fn run_campaign(
             &dir.join("memory.csv"),
             scenario,
             &memory_names,
-            &master.memory(),
+            &match (&master, &last_memory, &initial) {
+                (Some(master), ..) => master.memory(),
+                (None, Some(m), _) | (None, None, Some(m)) => m.iter().map(Vec::as_slice).collect(),
+                (None, None, None) => unreachable!("two lanes run at least two trials"),
+            },
         )?;
         crash.tick();
     }

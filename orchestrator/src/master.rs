@@ -48,6 +48,8 @@ pub enum MasterError {
         channel: String,
         source: ckcm::learning::UpdateError,
     },
+    #[error("trial {trial} stopped: the trial before it, whose memory it reads, did not finish")]
+    Cancelled { trial: usize },
     #[error("trial {trial}: {what} of FMU {fmu:?} failed before the first step: {source}")]
     Setup {
         trial: usize,
@@ -75,6 +77,37 @@ pub struct TrialSignals {
     pub error: [Vec<f64>; 6],
     /// Platform position (x, y, z) at each sample, when a pose port is configured.
     pub position: Vec<[f64; 3]>,
+}
+
+/// Steps per chunk of iteration memory that a pipelined trial hands to the next one.
+pub const CHUNK_STEPS: usize = 256;
+
+/// Where the iteration memory of a trial comes from and goes to, chunk by chunk of
+/// [`CHUNK_STEPS`] steps. Trial k+1 reads at step n only what trial k wrote at step n, so
+/// with the plain update (u_{k+1} = m_k) it can run on another core a chunk behind trial k.
+pub trait MemoryLink {
+    /// Whether the master calls the link at all; [`Unlinked`] compiles it away.
+    const ACTIVE: bool;
+    /// Fills `read`, channel `c`'s memory for the steps of chunk `chunk`, before they run.
+    fn receive(&mut self, c: usize, chunk: usize, read: &mut [f64]) -> Result<(), Stopped>;
+    /// Hands on `written`, channel `c`'s m_k for the steps of chunk `chunk`.
+    fn send(&mut self, c: usize, chunk: usize, written: &[f64]);
+}
+
+/// The trial that writes the memory stopped, or the campaign did.
+#[derive(Debug)]
+pub struct Stopped;
+
+/// The memory stays in the master: each trial reads what the trial before wrote in full.
+#[derive(Debug)]
+pub struct Unlinked;
+
+impl MemoryLink for Unlinked {
+    const ACTIVE: bool = false;
+    fn receive(&mut self, _: usize, _: usize, _: &mut [f64]) -> Result<(), Stopped> {
+        Ok(())
+    }
+    fn send(&mut self, _: usize, _: usize, _: &[f64]) {}
 }
 
 /// Per-FMU wiring, resolved to value references and bus slots.
@@ -470,9 +503,28 @@ impl<'s> Master<'s> {
     pub fn run_trial(
         &mut self,
         trial: usize,
+        recording: Option<&mut Recording>,
+        signals: &mut TrialSignals,
+        on_step: impl FnMut(usize),
+    ) -> Result<(), MasterError> {
+        self.run_trial_linked(trial, recording, signals, on_step, &mut Unlinked)
+    }
+
+    /// Whether every memory channel's update is the paper's plain u_{k+1} = m_k, so that a
+    /// trial can start before the one before it has finished ([`MemoryLink`]).
+    pub fn memory_is_plain(scenario: &Scenario) -> bool {
+        scenario.memory.iter().all(|m| m.update.is_none())
+    }
+
+    /// [`Master::run_trial`] with the memory read from and handed on through `link`, chunk
+    /// by chunk; the read buffers are filled by the link as the trial reaches them.
+    pub fn run_trial_linked<L: MemoryLink>(
+        &mut self,
+        trial: usize,
         mut recording: Option<&mut Recording>,
         signals: &mut TrialSignals,
         mut on_step: impl FnMut(usize),
+        link: &mut L,
     ) -> Result<(), MasterError> {
         let sc = self.scenario;
         self.start_trial(trial)?;
@@ -490,6 +542,14 @@ impl<'s> Master<'s> {
         let h = sc.step_size;
         let interval = sc.record.interval;
         for n in 0..sc.steps {
+            if L::ACTIVE && n % CHUNK_STEPS == 0 {
+                let end = (n + CHUNK_STEPS).min(sc.steps);
+                for (c, ch) in self.channels.iter_mut().enumerate() {
+                    let read = &mut ch.read[n * ch.width..end * ch.width];
+                    link.receive(c, n / CHUNK_STEPS, read)
+                        .map_err(|Stopped| MasterError::Cancelled { trial })?;
+                }
+            }
             let t = sc.time(n);
             for k in 0..self.instances.len() {
                 let w = &mut self.wiring[k];
@@ -583,6 +643,16 @@ impl<'s> Master<'s> {
             if n % interval == 0 {
                 if let Some(r) = recording.as_deref_mut() {
                     r.push_row(t, &self.row[..ncols]);
+                }
+            }
+            if L::ACTIVE && ((n + 1) % CHUNK_STEPS == 0 || n + 1 == sc.steps) {
+                let start = n / CHUNK_STEPS * CHUNK_STEPS;
+                for (c, ch) in self.channels.iter().enumerate() {
+                    link.send(
+                        c,
+                        n / CHUNK_STEPS,
+                        &ch.write[start * ch.width..(n + 1) * ch.width],
+                    );
                 }
             }
             on_step(n);

@@ -144,6 +144,7 @@ fn closed_loop_trial(dir: &std::path::Path, plant: &str) -> Recording {
             force: true,
             memory_limit_mib: None,
             crash_at: None,
+            lanes: 1,
         },
     )
     .unwrap_or_else(|e| panic!("{plant}: {e}"));

@@ -59,6 +59,17 @@ const MEASURED_ERROR: &str = "error = \"controller.error\"";
 
 /// Runs (or resumes) the campaign of `text` in `dir`, stopping after `stop_after` trials.
 fn run(text: &str, dir: &Path, resume: bool, stop_after: Option<usize>) -> Vec<TrialSummary> {
+    run_on(text, dir, resume, stop_after, 1)
+}
+
+/// [`run`] with `lanes` trials at a time.
+fn run_on(
+    text: &str,
+    dir: &Path,
+    resume: bool,
+    stop_after: Option<usize>,
+    lanes: usize,
+) -> Vec<TrialSummary> {
     std::fs::create_dir_all(dir).unwrap();
     let source = dir.join("in.toml");
     let (scenario, fmus) = Scenario::open_text(text, &source).unwrap_or_else(|e| panic!("{e}"));
@@ -75,6 +86,7 @@ fn run(text: &str, dir: &Path, resume: bool, stop_after: Option<usize>) -> Vec<T
             force: true,
             memory_limit_mib: None,
             crash_at: None,
+            lanes,
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
@@ -151,14 +163,28 @@ fn a_per_trial_seed_draws_fresh_noise_each_trial_and_resumes_identically() {
             .count();
         assert!(same < 5, "trials {k} and {}: {same} equal samples", k + 1);
     }
-    // Interrupted after 2 trials and resumed: the very same files.
+    // Interrupted after 2 trials and resumed: the very same files. Two trials at a time
+    // (each lane draws its trials' seeds; the resumed lane starts from the memory file):
+    // the very same files again.
     let parts = tmp.path().join("parts");
     run(&text, &parts, false, Some(2));
     run(&text, &parts, true, None);
-    let (a, b) = (tree(&whole), tree(&parts));
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (k, v) in &a {
-        assert!(v == &b[k], "{} differs after resume", k.display());
+    let two_lanes = tmp.path().join("two-lanes");
+    run_on(&text, &two_lanes, false, None, 2);
+    let resumed_on_two = tmp.path().join("resumed-on-two");
+    run(&text, &resumed_on_two, false, Some(1));
+    run_on(&text, &resumed_on_two, true, None, 2);
+    let a = tree(&whole);
+    for (other, what) in [
+        (&parts, "after resume"),
+        (&two_lanes, "on two lanes"),
+        (&resumed_on_two, "resumed on two lanes"),
+    ] {
+        let b = tree(other);
+        assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+        for (k, v) in &a {
+            assert!(v == &b[k], "{} differs {what}", k.display());
+        }
     }
 }
 

@@ -30,6 +30,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         force: args.force,
         memory_limit_mib: args.memory_limit_mib,
         crash_at: args.crash_at,
+        lanes: args
+            .jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
     };
     let summaries = run_campaign(&scenario, &text, fmus, &opts)?;
     for s in &summaries {

@@ -216,6 +216,7 @@ pub(super) fn run_scenario(
             force: true,
             memory_limit_mib: None,
             crash_at: None,
+            lanes: 1,
         },
     )?)
 }

@@ -433,6 +433,7 @@ fn run_case(
         force: false,
         memory_limit_mib: None,
         crash_at: None,
+        lanes: 1,
     };
     let outcome = match run_campaign(scenario, text, fmus, &copts) {
         Ok(_) => "status = \"completed\"\n".to_string(),

@@ -1,0 +1,279 @@
+//! Two trials at once: with the plain memory update (u_{k+1} = m_k), trial k+1 needs at step
+//! n only what trial k wrote at step n. Two lanes, each a thread with its own FMU instances,
+//! run the even and the odd trials; trial k+1 follows trial k a chunk of
+//! [`CHUNK_STEPS`](crate::master::CHUNK_STEPS) steps behind, receiving m_k chunk by chunk.
+//! Every trial computes exactly what it computes alone, so results do not depend on it.
+//!
+//! The campaign takes the outcomes in trial order and persists them as it does for a single
+//! lane. A lane that fails stops; the trials after it are cancelled, never reported, because
+//! the campaign stops at the first failed trial.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, sync_channel};
+
+use fmi2_import::Fmu;
+use indicatif::ProgressBar;
+
+use super::TrialSummary;
+use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped};
+use crate::output::Recording;
+use crate::scenario::Scenario;
+
+/// What a lane hands the campaign for one successful trial.
+pub(super) struct Finished {
+    pub summary: TrialSummary,
+    pub recording: Option<Recording>,
+    /// The memory this trial wrote (read by the next), channel by channel.
+    pub memory: Vec<Vec<f64>>,
+}
+
+enum Report {
+    /// The lane's master is set up (or why it is not).
+    Ready(Result<(), MasterError>),
+    Trial(usize, Result<Box<Finished>, MasterError>),
+}
+
+/// One chunk of one channel's memory.
+struct Chunk {
+    trial: usize,
+    channel: usize,
+    index: usize,
+    data: Vec<f64>,
+}
+
+/// The ends of the link from the trial before (inbound) and to the trial after (outbound),
+/// with the emptied chunk buffers going back the other way so that steady running
+/// allocates nothing.
+struct Link<'a> {
+    trial: usize,
+    receives: bool,
+    sends: bool,
+    inbound: &'a Receiver<Chunk>,
+    outbound: &'a SyncSender<Chunk>,
+    returned: &'a Receiver<Vec<f64>>,
+    give_back: &'a SyncSender<Vec<f64>>,
+    abort: &'a AtomicBool,
+}
+
+impl MemoryLink for Link<'_> {
+    const ACTIVE: bool = true;
+
+    fn receive(&mut self, c: usize, chunk: usize, read: &mut [f64]) -> Result<(), Stopped> {
+        if self.abort.load(Ordering::Relaxed) {
+            return Err(Stopped);
+        }
+        if !self.receives {
+            return Ok(());
+        }
+        // Disconnected: the lane of the trial before stopped.
+        let got = self.inbound.recv().map_err(|_| Stopped)?;
+        debug_assert_eq!(
+            (got.trial + 1, got.channel, got.index),
+            (self.trial, c, chunk)
+        );
+        read.copy_from_slice(&got.data);
+        // Full only if the other lane stopped; the buffer is then simply dropped.
+        let _ = self.give_back.try_send(got.data);
+        Ok(())
+    }
+
+    fn send(&mut self, c: usize, chunk: usize, written: &[f64]) {
+        if !self.sends {
+            return;
+        }
+        let mut data = self.returned.try_recv().unwrap_or_default();
+        data.clear();
+        data.extend_from_slice(written);
+        // An error means the next trial's lane has stopped: nobody needs the chunk.
+        let _ = self.outbound.send(Chunk {
+            trial: self.trial,
+            channel: c,
+            index: chunk,
+            data,
+        });
+    }
+}
+
+/// Everything a lane needs besides its own FMUs and link ends.
+struct Shared<'a> {
+    scenario: &'a Scenario,
+    logging: bool,
+    first: usize,
+    last: usize,
+    bar: &'a ProgressBar,
+    abort: &'a AtomicBool,
+}
+
+struct Ends {
+    inbound: Receiver<Chunk>,
+    outbound: SyncSender<Chunk>,
+    returned: Receiver<Vec<f64>>,
+    give_back: SyncSender<Vec<f64>>,
+}
+
+/// Runs trials `first + parity, first + parity + 2, …` below `last` on FMUs `fmus`.
+fn lane(
+    sh: &Shared<'_>,
+    parity: usize,
+    fmus: Vec<Fmu>,
+    initial: Option<&[Vec<f64>]>,
+    ends: Ends,
+    reports: Sender<Report>,
+) {
+    let mut master = match Master::new(sh.scenario, fmus, sh.logging) {
+        Ok(m) => m,
+        Err(e) => {
+            let _ = reports.send(Report::Ready(Err(e)));
+            return;
+        }
+    };
+    if let Some(data) = initial {
+        master.set_memory(data);
+    }
+    let _ = reports.send(Report::Ready(Ok(())));
+    let mut signals = master.new_signals();
+    for k in (sh.first + parity..sh.last).step_by(2) {
+        if sh.abort.load(Ordering::Relaxed) {
+            return;
+        }
+        let mut recording = sh
+            .scenario
+            .record
+            .records_trial(k)
+            .then(|| master.new_recording());
+        let mut link = Link {
+            trial: k,
+            receives: k > sh.first,
+            sends: k + 1 < sh.last,
+            inbound: &ends.inbound,
+            outbound: &ends.outbound,
+            returned: &ends.returned,
+            give_back: &ends.give_back,
+            abort: sh.abort,
+        };
+        let ran = master.run_trial_linked(
+            k,
+            recording.as_mut(),
+            &mut signals,
+            |n| {
+                if n % 1000 == 999 {
+                    sh.bar.inc(1000);
+                }
+            },
+            &mut link,
+        );
+        let failed = ran.is_err();
+        let outcome = ran.map(|()| {
+            Box::new(Finished {
+                summary: TrialSummary::compute(k, sh.scenario, &signals),
+                recording,
+                memory: master.memory().iter().map(|m| m.to_vec()).collect(),
+            })
+        });
+        if reports.send(Report::Trial(k, outcome)).is_err() || failed {
+            return;
+        }
+    }
+}
+
+/// The campaign's side of two running lanes.
+pub(super) struct Lanes {
+    reports: Receiver<Report>,
+    early: BTreeMap<usize, Result<Box<Finished>, MasterError>>,
+}
+
+impl Lanes {
+    /// Starts the two lanes for trials `first..last` in `scope`: the first on `fmus`, the
+    /// second on a second copy of every FMU opened from the scenario's paths (each copy is
+    /// unpacked and loaded on its own, as a sweep's cases are, so no FMU instance or
+    /// library state is shared between threads). `initial` is the memory trial `first`
+    /// reads (on resume). Returns once both lanes have set up their instances.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn start<'scope, 'env: 'scope>(
+        scope: &'scope std::thread::Scope<'scope, 'env>,
+        scenario: &'env Scenario,
+        fmus: Vec<Fmu>,
+        second: Vec<Fmu>,
+        logging: bool,
+        (first, last): (usize, usize),
+        initial: Option<&'env [Vec<f64>]>,
+        bar: &'env ProgressBar,
+        abort: &'env AtomicBool,
+    ) -> Result<Self, MasterError> {
+        // Trial k+1 lags trial k, so a link holds at most about one trial's chunks plus the
+        // next trial's first ones; twice that can never fill, so a send never waits.
+        let chunks = scenario.steps.div_ceil(CHUNK_STEPS);
+        let bound = (2 * chunks + 2) * scenario.memory.len().max(1);
+        let (a_out, b_in) = sync_channel::<Chunk>(bound);
+        let (b_out, a_in) = sync_channel::<Chunk>(bound);
+        let (a_give, b_returned) = sync_channel::<Vec<f64>>(bound);
+        let (b_give, a_returned) = sync_channel::<Vec<f64>>(bound);
+        let (tx, reports) = std::sync::mpsc::channel();
+        let sh = Shared {
+            scenario,
+            logging,
+            first,
+            last,
+            bar,
+            abort,
+        };
+        let sh_b = Shared { ..sh };
+        let tx_b = tx.clone();
+        let ends_a = Ends {
+            inbound: a_in,
+            outbound: a_out,
+            returned: a_returned,
+            give_back: a_give,
+        };
+        let ends_b = Ends {
+            inbound: b_in,
+            outbound: b_out,
+            returned: b_returned,
+            give_back: b_give,
+        };
+        scope.spawn(move || lane(&sh, 0, fmus, initial, ends_a, tx));
+        scope.spawn(move || lane(&sh_b, 1, second, None, ends_b, tx_b));
+        let mut lanes = Self {
+            reports,
+            early: BTreeMap::new(),
+        };
+        let mut ready = 0;
+        let mut failure = None;
+        while ready < 2 {
+            match lanes.reports.recv() {
+                Ok(Report::Ready(r)) => {
+                    ready += 1;
+                    if let Err(e) = r {
+                        failure.get_or_insert(e);
+                    }
+                }
+                Ok(Report::Trial(k, r)) => {
+                    lanes.early.insert(k, r);
+                }
+                Err(_) => break,
+            }
+        }
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(lanes),
+        }
+    }
+
+    /// The outcome of trial `k`, waiting for it.
+    pub(super) fn next(&mut self, k: usize) -> Result<Box<Finished>, MasterError> {
+        loop {
+            if let Some(r) = self.early.remove(&k) {
+                return r;
+            }
+            match self.reports.recv() {
+                Ok(Report::Trial(j, r)) => {
+                    self.early.insert(j, r);
+                }
+                Ok(Report::Ready(_)) => {}
+                // Both lanes ended without reporting k: only after an abort.
+                Err(_) => return Err(MasterError::Cancelled { trial: k }),
+            }
+        }
+    }
+}

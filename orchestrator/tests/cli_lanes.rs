@@ -1,0 +1,107 @@
+//! `run --jobs 2`: trial k+1 follows trial k on a second lane, reading its memory chunk by
+//! chunk. Whatever happens, the folder must hold byte for byte what one lane writes, and a
+//! failing trial must fail with the same message, on either lane.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use common::{foreign_fmu, orchestrator};
+
+/// The foreign oscillator driven by its own position of the trial before
+/// (drive_{k+1}(t) = x_k(t), amplified by `gain`): the memory grows from trial to trial until
+/// x passes `x_limit`, an fmi2Error mid-trial.
+fn scenario(dir: &Path, gain: f64, x_limit: f64) -> PathBuf {
+    let fmu = foreign_fmu(dir);
+    let path = dir.join(format!("g{gain}-x{x_limit}.toml"));
+    std::fs::write(
+        &path,
+        format!(
+            "step_size = 0.001\nstop_time = 2.0\ntrials = 8\n[[fmu]]\nname = \"osc\"\n\
+             path = \"{}\"\n[fmu.parameters]\nx0 = 0.1\ngain = {gain}\nx_limit = {x_limit}\n\
+             [[memory]]\nfrom = \"osc.x\"\nto = \"osc.drive\"\n\
+             [record]\nvariables = [\"osc.x\", \"osc.drive\"]\ntrials = [0, 1, 2, 5]\n",
+            fmu.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+/// Every file under `dir`, relative path → bytes.
+fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_path_buf();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// Runs `scenario` with `--jobs jobs` into `out`: success, and stderr's last line.
+fn run(scenario: &Path, out: &Path, jobs: usize) -> (bool, String) {
+    let o = orchestrator()
+        .arg("run")
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .arg(format!("--jobs={jobs}"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    (
+        o.status.success(),
+        err.lines().last().unwrap_or_default().to_owned(),
+    )
+}
+
+#[test]
+fn two_lanes_write_what_one_writes_and_fail_where_it_fails() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Which trial fails was found by running one lane: none; trial 3 (the second lane's);
+    // trial 2 (the first lane's).
+    for (gain, x_limit, failing) in [
+        (10.0, 1e3, None),
+        (10.0, 1.0, Some(3)),
+        (14.0, 1.0, Some(2)),
+    ] {
+        let s = scenario(tmp.path(), gain, x_limit);
+        let one = tmp.path().join(format!("one-{gain}-{x_limit}"));
+        let two = tmp.path().join(format!("two-{gain}-{x_limit}"));
+        let (ok1, last1) = run(&s, &one, 1);
+        let (ok2, last2) = run(&s, &two, 2);
+        assert_eq!(ok1, failing.is_none(), "{last1}");
+        assert_eq!(ok1, ok2, "gain {gain}, x_limit {x_limit}: {last2}");
+        if let Some(k) = failing {
+            assert_eq!(last1, last2);
+            assert!(
+                last2.starts_with(&format!("error: trial {k}, t = ")) && last2.contains("x_limit"),
+                "{last2}"
+            );
+        }
+        let (a, b) = (tree(&one), tree(&two));
+        assert_eq!(
+            a.keys().collect::<Vec<_>>(),
+            b.keys().collect::<Vec<_>>(),
+            "gain {gain}, x_limit {x_limit}"
+        );
+        for (path, bytes) in &a {
+            assert!(bytes == &b[path], "{} differs", path.display());
+        }
+        let completed = failing.unwrap_or(8);
+        let progress = String::from_utf8_lossy(&a[Path::new("progress.toml")]).into_owned();
+        assert!(
+            progress.starts_with(&format!("completed = {completed}\n")),
+            "{progress}"
+        );
+    }
+}
