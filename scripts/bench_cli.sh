@@ -71,7 +71,8 @@ trajectory = { kind = "$2", duration = $3, home_height = 0.5 }
 TOML
 }
 
-run() { echo "$bin run $work/$1.toml --out $work/out-$1"; }
+# One lane (--jobs 1): these figures are about the cost of a trial, not about using two cores.
+run() { echo "$bin run $work/$1.toml --out $work/out-$1 --jobs 1"; }
 
 growth() {
     echo "## Trial length (line, 1 trial)"

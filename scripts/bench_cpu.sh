@@ -9,13 +9,17 @@
 #                             binary BIN, 30 trials per run, perf task-clock)
 #   hlcs DIR FORMAT [RUNS]    wall and CPU s of `orchestrator run scenarios/line-hlcs.toml` as
 #                             shipped (10 trials, 5 recorded) with the FMUs of DIR, recording
-#                             in FORMAT (csv or parquet); every run is printed
+#                             in FORMAT (csv or parquet); every run is printed. It runs with
+#                             the CLI's default --jobs (two lanes on two or more cores);
+#                             CKCM_JOBS=N passes --jobs N
 #   instructions DIR          instructions per 15 s HLCS line trial of `orchestrator run`
 #                             with the FMUs of DIR under valgrind's cachegrind:
 #                             (Ir(3 trials) - Ir(1 trial)) / 2, no recording. The same on
 #                             every run, so it resolves changes of 1 % that the CPU time of a
 #                             shared machine cannot; it does not see latency, so a change
 #                             that only shortens a dependency chain needs the CPU figures
+#
+# `trial` and `instructions` run one lane (--jobs 1): they measure a trial's own cost.
 #
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
 # cargo build --release -p ckcm --example floor); GNU time and perf
@@ -60,8 +64,8 @@ trial)
     many=$(scenario "$dir" 21 none)
     best=
     for ((k = 0; k < runs; k++)); do
-        /usr/bin/time -o "$work/t1" -f "%U %S" "$bin" run "$one" --out "$work/o1" --force >/dev/null 2>&1
-        /usr/bin/time -o "$work/t21" -f "%U %S" "$bin" run "$many" --out "$work/o21" --force >/dev/null 2>&1
+        /usr/bin/time -o "$work/t1" -f "%U %S" "$bin" run "$one" --out "$work/o1" --force --jobs 1 >/dev/null 2>&1
+        /usr/bin/time -o "$work/t21" -f "%U %S" "$bin" run "$many" --out "$work/o21" --force --jobs 1 >/dev/null 2>&1
         ms=$(awk -v a="$(cpu_of "$work/t1")" -v b="$(cpu_of "$work/t21")" 'BEGIN {print (b - a) / 20 * 1000}')
         best=$(awk -v x="$ms" -v b="$best" 'BEGIN {print (b == "" || x < b) ? x : b}')
     done
@@ -84,7 +88,7 @@ hlcs)
     s=$(scenario "$dir" 10 record)
     for ((k = 0; k < runs; k++)); do
         /usr/bin/time -o "$work/th" -f "%e %U %S" "$bin" run "$s" --out "$work/oh" --force \
-            --record-format "$format" >/dev/null 2>&1
+            --record-format "$format" ${CKCM_JOBS:+--jobs "$CKCM_JOBS"} >/dev/null 2>&1
         awk -v f="$format" '{printf "%s: wall %.2f s (%.0fx real time), CPU %.2f s\n", f, $1, 150 / $1, $2 + $3}' "$work/th"
     done
     ;;
@@ -92,7 +96,7 @@ instructions)
     dir=${1:?instructions DIR}
     for n in 1 3; do
         valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg$n" \
-            "$bin" run "$(scenario "$dir" $n none)" --out "$work/o$n" --force \
+            "$bin" run "$(scenario "$dir" $n none)" --out "$work/o$n" --force --jobs 1 \
             >/dev/null 2>"$work/vg$n"
     done
     ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
