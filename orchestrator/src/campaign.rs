@@ -108,8 +108,9 @@ pub struct CampaignOptions {
     /// from 1: for tests that interrupt a campaign at every point.
     pub crash_at: Option<usize>,
     /// Trials run at the same time: 2 runs trial k+1 on a second core a chunk of steps
-    /// behind trial k when every memory channel has the plain update (`lanes`); anything
-    /// else runs one trial after the other. Results do not depend on it.
+    /// behind trial k (`lanes`) when every memory channel has the plain update and twice
+    /// the memory estimate fits the limit; otherwise, or with 1, one trial runs after the
+    /// other. Results do not depend on it.
     pub lanes: usize,
 }
 
@@ -392,12 +393,17 @@ pub fn memory_estimate(scenario: &Scenario) -> u64 {
 
 /// Refuses a campaign whose [`memory_estimate`] exceeds the limit, naming the scenario line
 /// that sets its length, before anything is allocated.
-pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), ScenarioError> {
-    let (limit, from) = match (limit_mib, scenario.memory_limit_mib) {
+/// The memory limit in MiB that applies, and where it comes from.
+fn memory_limit_mib(scenario: &Scenario, limit_mib: Option<u64>) -> (u64, &'static str) {
+    match (limit_mib, scenario.memory_limit_mib) {
         (Some(l), _) => (l, "--memory-limit-mib"),
         (None, Some(l)) => (l, "the scenario's memory_limit_mib"),
         (None, None) => (DEFAULT_MEMORY_LIMIT_MIB, "the default limit"),
-    };
+    }
+}
+
+pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), ScenarioError> {
+    let (limit, from) = memory_limit_mib(scenario, limit_mib);
     let need = memory_estimate(scenario);
     if need <= limit.saturating_mul(1 << 20) {
         return Ok(());
@@ -627,7 +633,13 @@ pub fn run_campaign(
     } else {
         ProgressBar::hidden()
     };
-    let use_lanes = opts.lanes >= 2 && Master::memory_is_plain(scenario) && last >= first + 2;
+    // Two lanes hold two masters' buffers: only when twice the estimate fits the limit.
+    let lanes_fit = memory_estimate(scenario).saturating_mul(2)
+        <= memory_limit_mib(scenario, opts.memory_limit_mib)
+            .0
+            .saturating_mul(1 << 20);
+    let use_lanes =
+        opts.lanes >= 2 && lanes_fit && Master::memory_is_plain(scenario) && last >= first + 2;
     // One lane: this thread's master runs every trial. Two: the lanes open their own
     // masters below and this thread only persists their outcomes.
     let (mut master, second) = if use_lanes {
