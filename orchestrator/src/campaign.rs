@@ -642,19 +642,8 @@ pub fn run_campaign(
         opts.lanes >= 2 && lanes_fit && Master::memory_is_plain(scenario) && last >= first + 2;
     // One lane: this thread's master runs every trial. Two: the lanes open their own
     // masters below and this thread only persists their outcomes.
-    let (mut master, second) = if use_lanes {
-        let second = scenario
-            .fmus
-            .iter()
-            .map(|f| {
-                Fmu::open(&f.path).map_err(|e| CampaignError::SecondCopy {
-                    fmu: f.name.clone(),
-                    path: f.path.clone(),
-                    source: Box::new(e),
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        (None, Some((fmus, second)))
+    let (mut master, first_copy) = if use_lanes {
+        (None, Some(fmus))
     } else {
         let mut m = Master::new(scenario, fmus, opts.fmu_logging)?;
         if let Some(data) = &initial {
@@ -698,12 +687,11 @@ pub fn run_campaign(
         // However this closure returns, lanes still running (after a failure) stop at their
         // next chunk before the scope waits for them.
         let _stop = StopLanes(&abort);
-        let mut lanes = match second {
-            Some((fmus, second)) => Some(lanes::Lanes::start(
+        let mut lanes = match first_copy {
+            Some(fmus) => Some(lanes::Lanes::start(
                 scope,
                 scenario,
                 fmus,
-                second,
                 opts.fmu_logging,
                 (first, last),
                 initial.as_deref(),

@@ -15,7 +15,7 @@ use std::sync::mpsc::{Receiver, Sender, SyncSender, sync_channel};
 use fmi2_import::Fmu;
 use indicatif::ProgressBar;
 
-use super::TrialSummary;
+use super::{CampaignError, TrialSummary};
 use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped};
 use crate::output::Recording;
 use crate::scenario::Scenario;
@@ -30,7 +30,7 @@ pub(super) struct Finished {
 
 enum Report {
     /// The lane's master is set up (or why it is not).
-    Ready(Result<(), MasterError>),
+    Ready(Result<(), CampaignError>),
     Trial(usize, Result<Box<Finished>, MasterError>),
 }
 
@@ -112,16 +112,36 @@ struct Ends {
     give_back: SyncSender<Vec<f64>>,
 }
 
-/// Runs trials `first + parity, first + parity + 2, …` below `last` on FMUs `fmus`.
+/// A second copy of every FMU of `scenario`, each unpacked and loaded on its own (as a
+/// sweep's cases are), so that no instance or library state is shared between lanes.
+fn open_copies(scenario: &Scenario) -> Result<Vec<Fmu>, CampaignError> {
+    scenario
+        .fmus
+        .iter()
+        .map(|f| {
+            Fmu::open(&f.path).map_err(|e| CampaignError::SecondCopy {
+                fmu: f.name.clone(),
+                path: f.path.clone(),
+                source: Box::new(e),
+            })
+        })
+        .collect()
+}
+
+/// Runs trials `first + parity, first + parity + 2, …` below `last` on FMUs `fmus`, or on
+/// copies it opens itself.
 fn lane(
     sh: &Shared<'_>,
     parity: usize,
-    fmus: Vec<Fmu>,
+    fmus: Option<Vec<Fmu>>,
     initial: Option<&[Vec<f64>]>,
     ends: Ends,
     reports: Sender<Report>,
 ) {
-    let mut master = match Master::new(sh.scenario, fmus, sh.logging) {
+    let set_up = fmus
+        .map_or_else(|| open_copies(sh.scenario), Ok)
+        .and_then(|fmus| Ok(Master::new(sh.scenario, fmus, sh.logging)?));
+    let mut master = match set_up {
         Ok(m) => m,
         Err(e) => {
             let _ = reports.send(Report::Ready(Err(e)));
@@ -185,22 +205,19 @@ pub(super) struct Lanes {
 
 impl Lanes {
     /// Starts the two lanes for trials `first..last` in `scope`: the first on `fmus`, the
-    /// second on a second copy of every FMU opened from the scenario's paths (each copy is
-    /// unpacked and loaded on its own, as a sweep's cases are, so no FMU instance or
-    /// library state is shared between threads). `initial` is the memory trial `first`
-    /// reads (on resume). Returns once both lanes have set up their instances.
+    /// second on copies it opens. `initial` is the memory trial `first` reads (on resume).
+    /// Returns once both lanes have set up their instances.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start<'scope, 'env: 'scope>(
         scope: &'scope std::thread::Scope<'scope, 'env>,
         scenario: &'env Scenario,
         fmus: Vec<Fmu>,
-        second: Vec<Fmu>,
         logging: bool,
         (first, last): (usize, usize),
         initial: Option<&'env [Vec<f64>]>,
         bar: &'env ProgressBar,
         abort: &'env AtomicBool,
-    ) -> Result<Self, MasterError> {
+    ) -> Result<Self, CampaignError> {
         // Trial k+1 lags trial k, so a link holds at most about one trial's chunks plus the
         // next trial's first ones; twice that can never fill, so a send never waits.
         let chunks = scenario.steps.div_ceil(CHUNK_STEPS);
@@ -232,8 +249,8 @@ impl Lanes {
             returned: b_returned,
             give_back: b_give,
         };
-        scope.spawn(move || lane(&sh, 0, fmus, initial, ends_a, tx));
-        scope.spawn(move || lane(&sh_b, 1, second, None, ends_b, tx_b));
+        scope.spawn(move || lane(&sh, 0, Some(fmus), initial, ends_a, tx));
+        scope.spawn(move || lane(&sh_b, 1, None, None, ends_b, tx_b));
         let mut lanes = Self {
             reports,
             early: BTreeMap::new(),
