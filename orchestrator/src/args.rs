@@ -60,10 +60,9 @@ pub struct RunArgs {
     /// (default: the scenario's `memory_limit_mib`, else 4096).
     #[arg(long, value_name = "MIB")]
     pub memory_limit_mib: Option<u64>,
-    /// Trials run at the same time: 2 runs trial k+1 on a second core a few milliseconds
-    /// of simulated time behind trial k, when every memory channel has the plain update
-    /// (default: 2 on a machine with two or more cores; 1 runs one trial after the other).
-    /// Results do not depend on it.
+    /// Trials run at the same time (default: the available cores): trial k+1 runs on
+    /// another core 256 steps behind trial k, when every memory channel has the plain
+    /// update; 1 runs one trial after the other. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Stop after this many trials in total, as if interrupted (for testing resume).

@@ -107,10 +107,10 @@ pub struct CampaignOptions {
     /// Abort the process (no clean-up, like SIGKILL) at the n-th file operation, counting
     /// from 1: for tests that interrupt a campaign at every point.
     pub crash_at: Option<usize>,
-    /// Trials run at the same time: 2 runs trial k+1 on a second core a chunk of steps
-    /// behind trial k (`lanes`) when every memory channel has the plain update and twice
-    /// the memory estimate fits the limit; otherwise, or with 1, one trial runs after the
-    /// other. Results do not depend on it.
+    /// Trials run at the same time: N ≥ 2 runs trial k+1 on another lane a chunk of steps
+    /// behind trial k (`lanes`) when every memory channel has the plain update, as many
+    /// lanes as trials are left and as N times the memory estimate fits the limit;
+    /// otherwise, or with 1, one trial runs after the other. Results do not depend on it.
     pub lanes: usize,
 }
 
@@ -633,13 +633,19 @@ pub fn run_campaign(
     } else {
         ProgressBar::hidden()
     };
-    // Two lanes hold two masters' buffers: only when twice the estimate fits the limit.
-    let lanes_fit = memory_estimate(scenario).saturating_mul(2)
-        <= memory_limit_mib(scenario, opts.memory_limit_mib)
-            .0
-            .saturating_mul(1 << 20);
-    let use_lanes =
-        opts.lanes >= 2 && lanes_fit && Master::memory_is_plain(scenario) && last >= first + 2;
+    // Each lane holds a master's buffers: as many lanes as the memory limit has room for.
+    let room = memory_limit_mib(scenario, opts.memory_limit_mib)
+        .0
+        .saturating_mul(1 << 20)
+        / memory_estimate(scenario).max(1);
+    let n_lanes = if Master::memory_is_plain(scenario) {
+        opts.lanes
+            .min(last.saturating_sub(first))
+            .min(usize::try_from(room).unwrap_or(usize::MAX))
+    } else {
+        1
+    };
+    let use_lanes = n_lanes >= 2;
     // One lane: this thread's master runs every trial. Two: the lanes open their own
     // masters below and this thread only persists their outcomes.
     let (mut master, first_copy) = if use_lanes {
@@ -692,6 +698,7 @@ pub fn run_campaign(
                 scope,
                 scenario,
                 fmus,
+                n_lanes,
                 opts.fmu_logging,
                 (first, last),
                 initial.as_deref(),

@@ -1,6 +1,6 @@
-//! `run --jobs 2`: trial k+1 follows trial k on a second lane, reading its memory chunk by
+//! `run --jobs N`: trial k+1 follows trial k on the next lane, reading its memory chunk by
 //! chunk. Whatever happens, the folder must hold byte for byte what one lane writes, and a
-//! failing trial must fail with the same message, on either lane.
+//! failing trial must fail with the same message, on any lane.
 
 mod common;
 
@@ -65,10 +65,10 @@ fn run(scenario: &Path, out: &Path, jobs: usize) -> (bool, String) {
 }
 
 #[test]
-fn two_lanes_write_what_one_writes_and_fail_where_it_fails() {
+fn lanes_write_what_one_writes_and_fail_where_it_fails() {
     let tmp = tempfile::tempdir().unwrap();
-    // Which trial fails was found by running one lane: none; trial 3 (the second lane's);
-    // trial 2 (the first lane's).
+    // Which trial fails was found by running one lane: none; trial 3 (the second of two
+    // lanes, the first of three); trial 2 (the first of two, the third of three).
     for (gain, x_limit, failing) in [
         (10.0, 1e3, None),
         (10.0, 1.0, Some(3)),
@@ -76,32 +76,42 @@ fn two_lanes_write_what_one_writes_and_fail_where_it_fails() {
     ] {
         let s = scenario(tmp.path(), gain, x_limit);
         let one = tmp.path().join(format!("one-{gain}-{x_limit}"));
-        let two = tmp.path().join(format!("two-{gain}-{x_limit}"));
         let (ok1, last1) = run(&s, &one, 1);
-        let (ok2, last2) = run(&s, &two, 2);
-        assert_eq!(ok1, failing.is_none(), "{last1}");
-        assert_eq!(ok1, ok2, "gain {gain}, x_limit {x_limit}: {last2}");
-        if let Some(k) = failing {
-            assert_eq!(last1, last2);
+        for jobs in [2, 3] {
+            let two = tmp.path().join(format!("jobs{jobs}-{gain}-{x_limit}"));
+            let (ok2, last2) = run(&s, &two, jobs);
+            assert_eq!(ok1, failing.is_none(), "{last1}");
+            assert_eq!(
+                ok1, ok2,
+                "--jobs {jobs}, gain {gain}, x_limit {x_limit}: {last2}"
+            );
+            if let Some(k) = failing {
+                assert_eq!(last1, last2);
+                assert!(
+                    last2.starts_with(&format!("error: trial {k}, t = "))
+                        && last2.contains("x_limit"),
+                    "{last2}"
+                );
+            }
+            let (a, b) = (tree(&one), tree(&two));
+            assert_eq!(
+                a.keys().collect::<Vec<_>>(),
+                b.keys().collect::<Vec<_>>(),
+                "gain {gain}, x_limit {x_limit}"
+            );
+            for (path, bytes) in &a {
+                assert!(
+                    bytes == &b[path],
+                    "--jobs {jobs}: {} differs",
+                    path.display()
+                );
+            }
+            let completed = failing.unwrap_or(8);
+            let progress = String::from_utf8_lossy(&a[Path::new("progress.toml")]).into_owned();
             assert!(
-                last2.starts_with(&format!("error: trial {k}, t = ")) && last2.contains("x_limit"),
-                "{last2}"
+                progress.starts_with(&format!("completed = {completed}\n")),
+                "{progress}"
             );
         }
-        let (a, b) = (tree(&one), tree(&two));
-        assert_eq!(
-            a.keys().collect::<Vec<_>>(),
-            b.keys().collect::<Vec<_>>(),
-            "gain {gain}, x_limit {x_limit}"
-        );
-        for (path, bytes) in &a {
-            assert!(bytes == &b[path], "{} differs", path.display());
-        }
-        let completed = failing.unwrap_or(8);
-        let progress = String::from_utf8_lossy(&a[Path::new("progress.toml")]).into_owned();
-        assert!(
-            progress.starts_with(&format!("completed = {completed}\n")),
-            "{progress}"
-        );
     }
 }

@@ -171,6 +171,8 @@ fn a_per_trial_seed_draws_fresh_noise_each_trial_and_resumes_identically() {
     run(&text, &parts, true, None);
     let two_lanes = tmp.path().join("two-lanes");
     run_on(&text, &two_lanes, false, None, 2);
+    let three_lanes = tmp.path().join("three-lanes");
+    run_on(&text, &three_lanes, false, None, 3);
     let resumed_on_two = tmp.path().join("resumed-on-two");
     run(&text, &resumed_on_two, false, Some(1));
     run_on(&text, &resumed_on_two, true, None, 2);
@@ -178,6 +180,7 @@ fn a_per_trial_seed_draws_fresh_noise_each_trial_and_resumes_identically() {
     for (other, what) in [
         (&parts, "after resume"),
         (&two_lanes, "on two lanes"),
+        (&three_lanes, "on three lanes"),
         (&resumed_on_two, "resumed on two lanes"),
     ] {
         let b = tree(other);

@@ -1,8 +1,9 @@
-//! Two trials at once: with the plain memory update (u_{k+1} = m_k), trial k+1 needs at step
-//! n only what trial k wrote at step n. Two lanes, each a thread with its own FMU instances,
-//! run the even and the odd trials; trial k+1 follows trial k a chunk of
-//! [`CHUNK_STEPS`](crate::master::CHUNK_STEPS) steps behind, receiving m_k chunk by chunk.
-//! Every trial computes exactly what it computes alone, so results do not depend on it.
+//! Trials at once: with the plain memory update (u_{k+1} = m_k), trial k+1 needs at step n
+//! only what trial k wrote at step n. N lanes, each a thread with its own FMU instances, run
+//! the trials in turn (lane i the trials first + i mod N), in a ring: trial k+1 follows
+//! trial k a chunk of [`CHUNK_STEPS`](crate::master::CHUNK_STEPS) steps behind, receiving
+//! m_k chunk by chunk. Every trial computes exactly what it computes alone, so results do
+//! not depend on N.
 //!
 //! The campaign takes the outcomes in trial order and persists them as it does for a single
 //! lane. A lane that fails stops; the trials after it are cancelled, never reported, because
@@ -101,6 +102,7 @@ struct Shared<'a> {
     logging: bool,
     first: usize,
     last: usize,
+    lanes: usize,
     bar: &'a ProgressBar,
     abort: &'a AtomicBool,
 }
@@ -128,11 +130,11 @@ fn open_copies(scenario: &Scenario) -> Result<Vec<Fmu>, CampaignError> {
         .collect()
 }
 
-/// Runs trials `first + parity, first + parity + 2, …` below `last` on FMUs `fmus`, or on
-/// copies it opens itself.
+/// Runs trials `first + i, first + i + lanes, …` below `last` on FMUs `fmus`, or on copies
+/// it opens itself.
 fn lane(
     sh: &Shared<'_>,
-    parity: usize,
+    i: usize,
     fmus: Option<Vec<Fmu>>,
     initial: Option<&[Vec<f64>]>,
     ends: Ends,
@@ -153,7 +155,7 @@ fn lane(
     }
     let _ = reports.send(Report::Ready(Ok(())));
     let mut signals = master.new_signals();
-    for k in (sh.first + parity..sh.last).step_by(2) {
+    for k in (sh.first + i..sh.last).step_by(sh.lanes) {
         if sh.abort.load(Ordering::Relaxed) {
             return;
         }
@@ -197,67 +199,82 @@ fn lane(
     }
 }
 
-/// The campaign's side of two running lanes.
+/// The campaign's side of the running lanes.
 pub(super) struct Lanes {
     reports: Receiver<Report>,
     early: BTreeMap<usize, Result<Box<Finished>, MasterError>>,
 }
 
 impl Lanes {
-    /// Starts the two lanes for trials `first..last` in `scope`: the first on `fmus`, the
-    /// second on copies it opens. `initial` is the memory trial `first` reads (on resume).
-    /// Returns once both lanes have set up their instances.
+    /// Starts `n` lanes for trials `first..last` in `scope`: lane i runs the trials
+    /// `first + i (mod n)`, the first on `fmus`, the others on copies they open, in a ring
+    /// where lane i hands its memory to lane i + 1. `initial` is the memory trial `first`
+    /// reads (on resume). Returns once every lane has set up its instances.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start<'scope, 'env: 'scope>(
         scope: &'scope std::thread::Scope<'scope, 'env>,
         scenario: &'env Scenario,
         fmus: Vec<Fmu>,
+        n: usize,
         logging: bool,
         (first, last): (usize, usize),
         initial: Option<&'env [Vec<f64>]>,
         bar: &'env ProgressBar,
         abort: &'env AtomicBool,
     ) -> Result<Self, CampaignError> {
-        // Trial k+1 lags trial k, so a link holds at most about one trial's chunks plus the
-        // next trial's first ones; twice that can never fill, so a send never waits.
+        // Lane i starts trial k + n only after lane i + 1, running trial k + 1, has taken
+        // chunk j of trial k; so a link holds at most one trial's chunks plus one. Twice that
+        // can never fill, so a send never waits.
         let chunks = scenario.steps.div_ceil(CHUNK_STEPS);
         let bound = (2 * chunks + 2) * scenario.memory.len().max(1);
-        let (a_out, b_in) = sync_channel::<Chunk>(bound);
-        let (b_out, a_in) = sync_channel::<Chunk>(bound);
-        let (a_give, b_returned) = sync_channel::<Vec<f64>>(bound);
-        let (b_give, a_returned) = sync_channel::<Vec<f64>>(bound);
+        // Link i: lane i's memory to lane i + 1, and the emptied buffers back.
+        let mut to_next: Vec<Option<SyncSender<Chunk>>> = Vec::with_capacity(n);
+        let mut from_prev: Vec<Option<Receiver<Chunk>>> = Vec::with_capacity(n);
+        let mut give_back: Vec<Option<SyncSender<Vec<f64>>>> = Vec::with_capacity(n);
+        let mut returned: Vec<Option<Receiver<Vec<f64>>>> = Vec::with_capacity(n);
+        for _ in 0..n {
+            let (tx, rx) = sync_channel::<Chunk>(bound);
+            to_next.push(Some(tx));
+            from_prev.push(Some(rx));
+            let (tx, rx) = sync_channel::<Vec<f64>>(bound);
+            give_back.push(Some(tx));
+            returned.push(Some(rx));
+        }
         let (tx, reports) = std::sync::mpsc::channel();
-        let sh = Shared {
-            scenario,
-            logging,
-            first,
-            last,
-            bar,
-            abort,
-        };
-        let sh_b = Shared { ..sh };
-        let tx_b = tx.clone();
-        let ends_a = Ends {
-            inbound: a_in,
-            outbound: a_out,
-            returned: a_returned,
-            give_back: a_give,
-        };
-        let ends_b = Ends {
-            inbound: b_in,
-            outbound: b_out,
-            returned: b_returned,
-            give_back: b_give,
-        };
-        scope.spawn(move || lane(&sh, 0, Some(fmus), initial, ends_a, tx));
-        scope.spawn(move || lane(&sh_b, 1, None, None, ends_b, tx_b));
+        let mut fmus = Some(fmus);
+        for i in 0..n {
+            let prev = (i + n - 1) % n;
+            let ends = Ends {
+                inbound: from_prev[prev].take().expect("each link has one consumer"),
+                outbound: to_next[i].take().expect("each link has one producer"),
+                returned: returned[i].take().expect("each link has one producer"),
+                give_back: give_back[prev].take().expect("each link has one consumer"),
+            };
+            let sh = Shared {
+                scenario,
+                logging,
+                first,
+                last,
+                lanes: n,
+                bar,
+                abort,
+            };
+            let tx = tx.clone();
+            let (own, initial) = if i == 0 {
+                (fmus.take(), initial)
+            } else {
+                (None, None)
+            };
+            scope.spawn(move || lane(&sh, i, own, initial, ends, tx));
+        }
+        drop(tx);
         let mut lanes = Self {
             reports,
             early: BTreeMap::new(),
         };
         let mut ready = 0;
         let mut failure = None;
-        while ready < 2 {
+        while ready < n {
             match lanes.reports.recv() {
                 Ok(Report::Ready(r)) => {
                     ready += 1;
