@@ -6,10 +6,9 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::{foreign_fmu, orchestrator};
+use common::{foreign_fmu, orchestrator, tree};
 use orchestrator::campaign::{DirLock, LOCK_FILE};
 
 /// A 3-trial campaign whose memory (the last trial's x, fed back as drive) changes every
@@ -55,26 +54,6 @@ fn run(scenario: &Path, out: &Path, args: &[&str]) -> std::process::Output {
 
 fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Every file under `dir`, relative path → bytes.
-fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(
-                    p.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&p).unwrap(),
-                );
-            }
-        }
-    }
-    out
 }
 
 fn assert_same_tree(expected: &Path, actual: &Path, when: &str) {

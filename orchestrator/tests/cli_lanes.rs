@@ -4,10 +4,9 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::{foreign_fmu, orchestrator};
+use common::{foreign_fmu, orchestrator, tree};
 
 /// The foreign oscillator driven by its own position of the trial before
 /// (drive_{k+1}(t) = x_k(t), amplified by `gain`): the memory grows from trial to trial until
@@ -27,24 +26,6 @@ fn scenario(dir: &Path, gain: f64, x_limit: f64) -> PathBuf {
     )
     .unwrap();
     path
-}
-
-/// Every file under `dir`, relative path → bytes.
-fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut todo = vec![dir.to_path_buf()];
-    while let Some(d) = todo.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                todo.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).unwrap().to_path_buf();
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
 }
 
 /// Runs `scenario` with `--jobs jobs` into `out`: success, and stderr's last line.

@@ -6,10 +6,9 @@
 
 mod common;
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::{built_fmu, column, read_csv};
+use common::{built_fmu, column, read_csv, tree};
 use fmi2_import::Fmu;
 use orchestrator::campaign::{CampaignOptions, TrialSummary, run_campaign};
 use orchestrator::scenario::Scenario;
@@ -90,26 +89,6 @@ fn run_on(
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// Every file under `dir` except the input scenario, relative path → bytes.
-fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.file_name().is_some_and(|n| n != "in.toml") {
-                out.insert(
-                    p.strip_prefix(dir).unwrap().to_path_buf(),
-                    std::fs::read(&p).unwrap(),
-                );
-            }
-        }
-    }
-    out
 }
 
 /// Noise on length[leg] of a recorded trial: reported − true, per sample.

@@ -4,6 +4,7 @@
 // Each test binary includes this module and uses a different subset of it.
 #![allow(dead_code)]
 
+use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -208,4 +209,24 @@ pub fn read_csv(path: &Path) -> Recording {
 pub fn column<'a>(rec: &'a Recording, name: &str) -> &'a [f64] {
     rec.column(name)
         .unwrap_or_else(|| panic!("no column {name} in {:?}", rec.names))
+}
+
+/// Every file under `dir`, relative path → bytes: two result folders compare as wholes.
+pub fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                );
+            }
+        }
+    }
+    out
 }
