@@ -74,7 +74,7 @@ pub enum CampaignError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("cannot open a second copy of FMU {fmu:?} ({}) for the second lane: {source}", path.display())]
+    #[error("cannot open another copy of FMU {fmu:?} ({}) for a second lane: {source}", path.display())]
     SecondCopy {
         fmu: String,
         path: PathBuf,

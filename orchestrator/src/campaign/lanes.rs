@@ -114,7 +114,7 @@ struct Ends {
     give_back: SyncSender<Vec<f64>>,
 }
 
-/// A second copy of every FMU of `scenario`, each unpacked and loaded on its own (as a
+/// Another copy of every FMU of `scenario`, each unpacked and loaded on its own (as a
 /// sweep's cases are), so that no instance or library state is shared between lanes.
 fn open_copies(scenario: &Scenario) -> Result<Vec<Fmu>, CampaignError> {
     scenario
