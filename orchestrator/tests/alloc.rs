@@ -1,5 +1,7 @@
 //! After a warm-up trial, `Master::run_trial` allocates nothing: the master loop only copies
-//! between buffers sized in `Master::new`, `new_recording` and `new_signals`.
+//! between buffers sized in `Master::new`, `new_recording` and `new_signals`. Nor does
+//! `Master::run_trial_linked`, the loop of `run --jobs N`'s lanes, with a link that hands the
+//! memory on through buffers of its own.
 //!
 //! The counting allocator is this test binary's global allocator, so it counts the master's
 //! own allocations (and fmi2-import's); the FMUs are shared libraries with their own
@@ -13,7 +15,7 @@ mod common;
 use std::path::Path;
 
 use alloc_count::{CountingAllocator, counted};
-use orchestrator::master::Master;
+use orchestrator::master::{CHUNK_STEPS, Master, MemoryLink, Stopped};
 use orchestrator::scenario::Scenario;
 
 #[global_allocator]
@@ -111,4 +113,86 @@ fn counter_counts() {
         counted(|| orchestrator::output::Recording::with_capacity(vec![], 10));
     assert!(during > 0);
     assert!(recording.is_empty());
+}
+
+/// Hands each trial's memory to the next chunk by chunk through two buffers of its own, as
+/// a lane's link does through its channels (one channel of `width` values per step).
+struct Loopback {
+    width: usize,
+    current: Vec<f64>,
+    next: Vec<f64>,
+}
+
+impl MemoryLink for Loopback {
+    const ACTIVE: bool = true;
+
+    fn receive(&mut self, c: usize, chunk: usize, read: &mut [f64]) -> Result<(), Stopped> {
+        assert_eq!(c, 0);
+        let at = chunk * CHUNK_STEPS * self.width;
+        read.copy_from_slice(&self.current[at..at + read.len()]);
+        Ok(())
+    }
+
+    fn send(&mut self, c: usize, chunk: usize, written: &[f64]) {
+        assert_eq!(c, 0);
+        let at = chunk * CHUNK_STEPS * self.width;
+        self.next[at..at + written.len()].copy_from_slice(written);
+    }
+}
+
+/// The linked loop allocates nothing after a warm-up trial either, and computes what the
+/// plain loop computes: the same memory and recording, bit for bit, trial after trial.
+#[test]
+fn linked_trials_do_not_allocate_and_match_the_plain_ones() {
+    let text = scenario_toml("");
+    let open = || Scenario::open_text(&text, Path::new("alloc-line.toml")).unwrap();
+    let (scenario, fmus) = open();
+    let (scenario_linked, fmus_linked) = open();
+    let mut plain = Master::new(&scenario, fmus, false).unwrap();
+    let mut linked = Master::new(&scenario_linked, fmus_linked, false).unwrap();
+    let len = linked.memory()[0].len();
+    let mut link = Loopback {
+        width: len / 2000,
+        current: vec![0.0; len],
+        next: vec![0.0; len],
+    };
+    let (mut rec_plain, mut rec_linked) = (plain.new_recording(), linked.new_recording());
+    let (mut sig_plain, mut sig_linked) = (plain.new_signals(), linked.new_signals());
+    // The linked master's own read buffers are spoiled before each trial, so only what the
+    // link delivers can make its trials equal the plain ones.
+    let spoiled = vec![vec![f64::NAN; len]];
+    for trial in 0..3 {
+        plain
+            .run_trial(trial, Some(&mut rec_plain), &mut sig_plain, |_| {})
+            .unwrap();
+        linked.set_memory(&spoiled);
+        let (during, result) = counted(|| {
+            linked.run_trial_linked(
+                trial,
+                Some(&mut rec_linked),
+                &mut sig_linked,
+                |_| {},
+                &mut link,
+            )
+        });
+        result.unwrap();
+        if trial > 0 {
+            assert_eq!(
+                during, 0,
+                "linked trial {trial} allocated {during} times (CKCM_ALLOC_BACKTRACE=1 shows where)"
+            );
+        }
+        std::mem::swap(&mut link.current, &mut link.next);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&link.current),
+            bits(plain.memory()[0]),
+            "trial {trial}"
+        );
+        assert!(link.current.iter().any(|&u| u != 0.0));
+        assert_eq!(rec_linked.columns.len(), rec_plain.columns.len());
+        for (a, b) in rec_linked.columns.iter().zip(&rec_plain.columns) {
+            assert_eq!(bits(a), bits(b), "trial {trial}");
+        }
+    }
 }
