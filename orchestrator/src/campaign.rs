@@ -391,8 +391,6 @@ pub fn memory_estimate(scenario: &Scenario) -> u64 {
     }
 }
 
-/// Refuses a campaign whose [`memory_estimate`] exceeds the limit, naming the scenario line
-/// that sets its length, before anything is allocated.
 /// The memory limit in MiB that applies, and where it comes from.
 fn memory_limit_mib(scenario: &Scenario, limit_mib: Option<u64>) -> (u64, &'static str) {
     match (limit_mib, scenario.memory_limit_mib) {
@@ -402,6 +400,8 @@ fn memory_limit_mib(scenario: &Scenario, limit_mib: Option<u64>) -> (u64, &'stat
     }
 }
 
+/// Refuses a campaign whose [`memory_estimate`] exceeds the limit, naming the scenario line
+/// that sets its length, before anything is allocated.
 pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), ScenarioError> {
     let (limit, from) = memory_limit_mib(scenario, limit_mib);
     let need = memory_estimate(scenario);
@@ -646,25 +646,25 @@ pub fn run_campaign(
         1
     };
     let use_lanes = n_lanes >= 2;
-    // One lane: this thread's master runs every trial. Two: the lanes open their own
-    // masters below and this thread only persists their outcomes.
-    let (mut master, first_copy) = if use_lanes {
+    // One lane: this thread's master runs every trial, into one recording and one set of
+    // signals. More: the lanes open their own masters below and this thread only persists
+    // their outcomes.
+    let (mut one_lane, first_copy) = if use_lanes {
         (None, Some(fmus))
     } else {
-        let mut m = Master::new(scenario, fmus, opts.fmu_logging)?;
+        let mut master = Master::new(scenario, fmus, opts.fmu_logging)?;
         if let Some(data) = &initial {
-            m.set_memory(data);
+            master.set_memory(data);
         }
-        (Some(m), None)
+        let (recording, signals) = (master.new_recording(), master.new_signals());
+        (Some((master, recording, signals)), None)
     };
-    let mut recording: Option<Recording> = master.as_ref().map(Master::new_recording);
-    let mut signals = master.as_ref().map(Master::new_signals);
     let memory_names: Vec<String> = scenario
         .memory
         .iter()
         .flat_map(|m| m.link.from.names.iter().cloned())
         .collect();
-    // The memory the last trial run wrote (two lanes), for memory.csv.
+    // The memory the last trial run wrote (lanes), for memory.csv.
     let mut last_memory: Option<Vec<Vec<f64>>> = None;
     let abort = AtomicBool::new(false);
     let header = summary_header();
@@ -728,16 +728,16 @@ pub fn run_campaign(
         for k in first..last {
             bar.set_message(format!("trial {k}/{}", scenario.trials - 1));
             let record_this = scenario.record.records_trial(k);
-            let ran = match (&mut master, &mut lanes, &mut recording, &mut signals) {
-                (Some(master), _, Some(recording), Some(signals)) => master
+            let ran = match (&mut one_lane, &mut lanes) {
+                (Some((master, recording, signals)), _) => master
                     .run_trial(k, record_this.then_some(recording), signals, |n| {
                         if n % 1000 == 999 {
                             bar.inc(1000);
                         }
                     })
                     .map(|()| None),
-                (_, Some(lanes), ..) => lanes.next(k).map(Some),
-                _ => unreachable!("one lane has a master, two have lanes"),
+                (None, Some(lanes)) => lanes.next(k).map(Some),
+                (None, None) => unreachable!("one lane has a master, more have lanes"),
             };
             // The trial before succeeded: it is kept either way.
             finish(&mut pending, &mut spare, &mut crash)?;
@@ -759,15 +759,15 @@ pub fn run_campaign(
                 })?;
                 crash.tick();
             }
-            let (memory, full) = match (from_lane, &master, &mut recording, &signals) {
-                (Some(done), ..) => {
+            let (memory, full) = match (from_lane, &mut one_lane) {
+                (Some(done), _) => {
                     summaries.push(done.summary);
                     let slices: Vec<&[f64]> = done.memory.iter().map(Vec::as_slice).collect();
                     let memory = memory_bytes(&slices);
                     last_memory = Some(done.memory);
                     (memory, done.recording)
                 }
-                (None, Some(master), Some(recording), Some(signals)) => {
+                (None, Some((master, recording, signals))) => {
                     summaries.push(TrialSummary::compute(k, scenario, signals));
                     let full = record_this.then(|| {
                         let next = spare.take().unwrap_or_else(|| master.new_recording());
@@ -775,7 +775,7 @@ pub fn run_campaign(
                     });
                     (memory_bytes(&master.memory()), full)
                 }
-                _ => unreachable!("a trial ran on a lane or on the master"),
+                (None, None) => unreachable!("a trial ran on a lane or on the master"),
             };
             let committed = summaries.clone();
             let mut counter = crash;
@@ -801,10 +801,10 @@ pub fn run_campaign(
             &dir.join("memory.csv"),
             scenario,
             &memory_names,
-            &match (&master, &last_memory, &initial) {
-                (Some(master), ..) => master.memory(),
-                (None, Some(m), _) | (None, None, Some(m)) => m.iter().map(Vec::as_slice).collect(),
-                (None, None, None) => unreachable!("two lanes run at least two trials"),
+            &match (&one_lane, &last_memory) {
+                (Some((master, ..)), _) => master.memory(),
+                (None, Some(m)) => m.iter().map(Vec::as_slice).collect(),
+                (None, None) => unreachable!("lanes run at least two trials"),
             },
         )?;
         crash.tick();
