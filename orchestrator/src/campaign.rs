@@ -20,10 +20,11 @@
 
 mod lanes;
 mod lock;
+mod writers;
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
 use clap::ValueEnum;
@@ -31,9 +32,11 @@ use fmi2_import::Fmu;
 use indicatif::{ProgressBar, ProgressStyle};
 
 pub use self::lock::{DirLock, LOCK_FILE};
+use self::writers::Writers;
 use crate::master::{Master, MasterError, TrialSignals};
 use crate::output::{
-    CsvExporter, OutputError, Recording, write_atomic, write_recording, write_table_csv,
+    CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, write_atomic,
+    write_recording, write_table_csv,
 };
 use crate::scenario::{RecordFormat, Scenario, ScenarioError};
 
@@ -345,13 +348,14 @@ fn read_memory(path: &Path, lens: &[usize]) -> Result<Vec<Vec<f64>>, String> {
     Ok(out)
 }
 
-/// The final memory as a readable table: `time`, then one column per memory element.
-fn write_memory_csv(
+/// The final memory as a readable table (`time`, then one column per memory element),
+/// durable but not yet in place.
+fn prepare_memory_csv(
     path: &Path,
     scenario: &Scenario,
     names: &[String],
     buffers: &[&[f64]],
-) -> Result<(), OutputError> {
+) -> Result<Prepared, OutputError> {
     let mut mem = Recording::with_capacity(names.to_vec(), scenario.steps);
     let mut row = vec![0.0; names.len()];
     for n in 0..scenario.steps {
@@ -363,7 +367,7 @@ fn write_memory_csv(
         }
         mem.push_row(scenario.time(n), &row);
     }
-    write_recording(path, &mem, &CsvExporter)
+    prepare_atomic(path, |w| CsvExporter.write(&mem, w))
 }
 
 /// Bytes a campaign of `scenario` holds at its peak (8 bytes per value): the read and write
@@ -376,14 +380,21 @@ pub fn memory_estimate(scenario: &Scenario) -> u64 {
         .iter()
         .map(|l| l.link.from.value_references.len())
         .sum();
-    let recorded: usize = scenario.record.ports.iter().map(|p| p.names.len()).sum();
-    let rows = (steps / scenario.record.interval as f64).ceil();
     // Memory: read + write + resumed copy + memory.csv (with its time column).
     let memory = steps * (4 * memory_width + 1) as f64;
-    let recording = rows * (recorded + 1) as f64;
     // Signals: time, six errors, x y z; metrics: relative time, desired x y z.
     let signals = steps * (1 + 6 + 3 + 1 + 3) as f64;
-    let bytes = 8.0 * (memory + recording + signals);
+    saturating_u64(8.0 * (memory + signals) + recording_bytes(scenario))
+}
+
+/// Bytes one trial's recording holds (its time column included).
+fn recording_bytes(scenario: &Scenario) -> f64 {
+    let recorded: usize = scenario.record.ports.iter().map(|p| p.names.len()).sum();
+    let rows = (scenario.steps as f64 / scenario.record.interval as f64).ceil();
+    8.0 * rows * (recorded + 1) as f64
+}
+
+fn saturating_u64(bytes: f64) -> u64 {
     if bytes >= u64::MAX as f64 {
         u64::MAX
     } else {
@@ -424,18 +435,17 @@ pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), S
 }
 
 /// Counts file operations and aborts the process at the requested one (see
-/// [`CampaignOptions::crash_at`]). One copy at a time counts: the main thread's, or while a
-/// trial's files are written, the writer thread's, which hands it back when joined.
-#[derive(Debug, Clone, Copy)]
+/// [`CampaignOptions::crash_at`]). The main thread and the writer threads share one count.
+#[derive(Debug)]
 struct CrashPoint {
     at: Option<usize>,
-    count: usize,
+    count: AtomicUsize,
 }
 
 impl CrashPoint {
-    fn tick(&mut self) {
-        self.count += 1;
-        if self.at == Some(self.count) {
+    fn tick(&self) {
+        let count = self.count.fetch_add(1, Ordering::Relaxed) + 1;
+        if self.at == Some(count) {
             std::process::abort();
         }
     }
@@ -542,11 +552,6 @@ impl Drop for StopLanes<'_> {
     }
 }
 
-/// The thread writing and committing one trial's files; it hands back the crash counter
-/// and the recording buffer, if the trial was recorded.
-type TrialWriter<'scope> =
-    std::thread::ScopedJoinHandle<'scope, Result<(CrashPoint, Option<Recording>), CampaignError>>;
-
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
 /// returning the summaries of all trials.
 pub fn run_campaign(
@@ -559,9 +564,9 @@ pub fn run_campaign(
     let dir = &opts.out_dir;
     let fp = fingerprint(scenario, scenario_text)?;
     let _lock = DirLock::acquire(dir)?;
-    let mut crash = CrashPoint {
+    let crash = CrashPoint {
         at: opts.crash_at,
-        count: 0,
+        count: AtomicUsize::new(0),
     };
     let mut summaries: Vec<TrialSummary> = Vec::new();
     let mut first = 0;
@@ -633,11 +638,14 @@ pub fn run_campaign(
     } else {
         ProgressBar::hidden()
     };
-    // Each lane holds a master's buffers: as many lanes as the memory limit has room for.
+    // Each lane holds a master's buffers, and a recording waiting for its writer: as many
+    // lanes as the memory limit has room for.
+    let per_lane =
+        memory_estimate(scenario).saturating_add(saturating_u64(recording_bytes(scenario)));
     let room = memory_limit_mib(scenario, opts.memory_limit_mib)
         .0
         .saturating_mul(1 << 20)
-        / memory_estimate(scenario).max(1);
+        / per_lane.max(1);
     let n_lanes = if Master::memory_is_plain(scenario) {
         opts.lanes
             .min(last.saturating_sub(first))
@@ -670,11 +678,11 @@ pub fn run_campaign(
     let header = summary_header();
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
     // Trial j is committed (summary.csv, progress.toml, the previous memory file removed),
-    // in trial order, only once all its files are durable. A thread writes a trial's files
-    // and then commits it while the next trial runs (the second core formats and syncs
-    // them), one trial at a time; a kill therefore never leaves progress.toml claiming a
-    // trial whose recording or memory is missing.
-    let commit = |j: usize, summaries: &[TrialSummary], crash: &mut CrashPoint| {
+    // in trial order, only once all its files are durable. A writer thread writes a trial's
+    // files while the next trials run and commits it after the trial before (see
+    // `writers`); a kill therefore never leaves progress.toml claiming a trial whose
+    // recording or memory is missing.
+    let commit = |j: usize, summaries: &[TrialSummary]| {
         let rows: Vec<Vec<String>> = summaries[..=j].iter().map(TrialSummary::to_row).collect();
         write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
         crash.tick();
@@ -707,24 +715,9 @@ pub fn run_campaign(
             )?),
             None => None,
         };
-        // The thread writing the last trial's files, and the recording buffer it does not hold.
-        let mut pending: Option<TrialWriter<'_>> = None;
-        let mut spare: Option<Recording> = None;
-        // Waits for the pending writer and takes the crash counter and its buffer back.
-        let finish = |pending: &mut Option<TrialWriter<'_>>,
-                      spare: &mut Option<Recording>,
-                      crash: &mut CrashPoint| {
-            if let Some(writer) = pending.take() {
-                let (counted, buffer) = writer
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-                *crash = counted;
-                if buffer.is_some() {
-                    *spare = buffer;
-                }
-            }
-            Ok::<(), CampaignError>(())
-        };
+        // As many writers in flight as lanes: each lane's recording may wait for its writer
+        // while the lane runs on (counted in the lanes' memory room above).
+        let mut writers = Writers::new(n_lanes);
         for k in first..last {
             bar.set_message(format!("trial {k}/{}", scenario.trials - 1));
             let record_this = scenario.record.records_trial(k);
@@ -739,9 +732,15 @@ pub fn run_campaign(
                 (None, Some(lanes)) => lanes.next(k).map(Some),
                 (None, None) => unreachable!("one lane has a master, more have lanes"),
             };
-            // The trial before succeeded: it is kept either way.
-            finish(&mut pending, &mut spare, &mut crash)?;
-            let from_lane = ran?;
+            writers.reap()?;
+            let from_lane = match ran {
+                Ok(done) => done,
+                Err(e) => {
+                    // The trials before succeeded: they are kept either way.
+                    writers.finish()?;
+                    return Err(CampaignError::from(e));
+                }
+            };
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
                 remove_campaign(dir)?;
@@ -770,7 +769,10 @@ pub fn run_campaign(
                 (None, Some((master, recording, signals))) => {
                     summaries.push(TrialSummary::compute(k, scenario, signals));
                     let full = record_this.then(|| {
-                        let next = spare.take().unwrap_or_else(|| master.new_recording());
+                        let next = writers
+                            .spare
+                            .take()
+                            .unwrap_or_else(|| master.new_recording());
                         std::mem::replace(recording, next)
                     });
                     (memory_bytes(&master.memory()), full)
@@ -778,37 +780,47 @@ pub fn run_campaign(
                 (None, None) => unreachable!("a trial ran on a lane or on the master"),
             };
             let committed = summaries.clone();
-            let mut counter = crash;
-            let commit = &commit;
-            pending = Some(scope.spawn(move || {
-                if let Some(full) = &full {
-                    write_recording(&trial_file(dir, k, format), full, format.exporter())?;
-                    counter.tick();
-                }
-                write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;
-                counter.tick();
-                commit(k, &committed, &mut counter)?;
-                Ok((counter, full))
-            }));
+            let crash = &crash;
+            writers.spawn(
+                scope,
+                move || {
+                    if let Some(full) = &full {
+                        write_recording(&trial_file(dir, k, format), full, format.exporter())?;
+                        crash.tick();
+                    }
+                    write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;
+                    crash.tick();
+                    Ok(full)
+                },
+                move || commit(k, &committed),
+            )?;
         }
-        finish(&mut pending, &mut spare, &mut crash)
+        // memory.csv is formatted and synced while the last writers finish, and put in place
+        // only after their commits. Also when a resumed campaign had nothing left to run: a
+        // run killed right after its last progress.toml still gets its memory.csv.
+        let table = (last > first || (resuming && first == scenario.trials && first > 0))
+            .then(|| {
+                prepare_memory_csv(
+                    &dir.join("memory.csv"),
+                    scenario,
+                    &memory_names,
+                    &match (&one_lane, &last_memory) {
+                        (Some((master, ..)), _) => master.memory(),
+                        (None, Some(m)) => m.iter().map(Vec::as_slice).collect(),
+                        (None, None) => unreachable!("lanes run at least two trials"),
+                    },
+                )
+            })
+            .transpose();
+        // A writer's error concerns an earlier file than memory.csv: it wins.
+        writers.finish()?;
+        if let Some(table) = table? {
+            table.commit()?;
+            crash.tick();
+        }
+        Ok::<(), CampaignError>(())
     })?;
     bar.finish_and_clear();
-    // Also when a resumed campaign had nothing left to run: a run killed right after its
-    // last progress.toml still gets its memory.csv.
-    if last > first || (resuming && first == scenario.trials && first > 0) {
-        write_memory_csv(
-            &dir.join("memory.csv"),
-            scenario,
-            &memory_names,
-            &match (&one_lane, &last_memory) {
-                (Some((master, ..)), _) => master.memory(),
-                (None, Some(m)) => m.iter().map(Vec::as_slice).collect(),
-                (None, None) => unreachable!("lanes run at least two trials"),
-            },
-        )?;
-        crash.tick();
-    }
     Ok(summaries)
 }
 

@@ -270,46 +270,50 @@ fn resume_refuses_a_folder_of_a_different_scenario() {
 /// Kills the campaign (abort: no destructor, no clean-up, like SIGKILL) at every file
 /// operation in turn, then resumes it (itself killed once more on the way when that is
 /// possible): each folder ends byte-identical to an uninterrupted run, without temporary or
-/// stale memory files.
+/// stale memory files. On one lane and on two, where two trials' writers run at once and the
+/// order of file operations varies from run to run.
 #[test]
 fn kill_at_every_file_operation_then_resume_is_byte_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let s = scenario(tmp.path(), "");
     let whole = tmp.path().join("whole");
-    let o = run(&s, &whole, &[]);
+    let o = run(&s, &whole, &["--jobs", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let mut points = 0;
-    for at in 1.. {
-        let out = tmp.path().join(format!("killed-{at}"));
-        let o = run(&s, &out, &["--crash-at", &at.to_string()]);
-        if o.status.success() {
-            break;
-        }
-        assert!(
-            o.status.code().is_none(),
-            "crash point {at} must abort: {}",
-            stderr(&o)
-        );
-        points += 1;
-        if out.exists() {
-            // Leftovers a kill inside a write can leave: a temporary file and a memory file
-            // of a trial that progress.toml does not claim.
-            std::fs::write(out.join(".summary.csv.tmp-999999-0"), b"torn").unwrap();
-            if out.join("memory").is_dir() {
-                std::fs::write(out.join("memory/after_trial_007.f64"), b"stale").unwrap();
+    for jobs in ["1", "2"] {
+        let mut points = 0;
+        for at in 1.. {
+            let out = tmp.path().join(format!("killed-{jobs}-{at}"));
+            let o = run(&s, &out, &["--jobs", jobs, "--crash-at", &at.to_string()]);
+            if o.status.success() {
+                break;
             }
+            assert!(
+                o.status.code().is_none(),
+                "crash point {at} must abort: {}",
+                stderr(&o)
+            );
+            points += 1;
+            if out.exists() {
+                // Leftovers a kill inside a write can leave: a temporary file and a memory
+                // file of a trial that progress.toml does not claim.
+                std::fs::write(out.join(".summary.csv.tmp-999999-0"), b"torn").unwrap();
+                if out.join("memory").is_dir() {
+                    std::fs::write(out.join("memory/after_trial_007.f64"), b"stale").unwrap();
+                }
+            }
+            // A second interruption during the resume, then the resume that finishes.
+            let _ = run(&s, &out, &["--jobs", jobs, "--resume", "--crash-at", "2"]);
+            let o = run(&s, &out, &["--jobs", jobs, "--resume"]);
+            assert!(
+                o.status.success(),
+                "resume after point {at}: {}",
+                stderr(&o)
+            );
+            let when = format!("after a kill at point {at} with --jobs {jobs}");
+            assert_same_tree(&whole, &out, &when);
         }
-        // A second interruption during the resume, then the resume that finishes.
-        let _ = run(&s, &out, &["--resume", "--crash-at", "2"]);
-        let o = run(&s, &out, &["--resume"]);
-        assert!(
-            o.status.success(),
-            "resume after point {at}: {}",
-            stderr(&o)
-        );
-        assert_same_tree(&whole, &out, &format!("after a kill at point {at}"));
+        // 3 trials: removal of an old campaign, scenario, and per trial CSV, memory, summary,
+        // progress (and removal of the previous memory), then memory.csv.
+        assert!(points >= 15, "only {points} kill points with --jobs {jobs}");
     }
-    // 3 trials: removal of an old campaign, scenario, and per trial CSV, memory, summary,
-    // progress (and removal of the previous memory), then memory.csv.
-    assert!(points >= 15, "only {points} kill points were exercised");
 }

@@ -24,23 +24,63 @@ pub fn write_atomic<F>(path: &Path, write: F) -> Result<(), OutputError>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
-    write_atomic_inner(path, write).map_err(|source| OutputError::Io {
+    prepare_atomic(path, write)?.commit()
+}
+
+/// The first half of [`write_atomic`]: the new content, complete and durable under its
+/// temporary name, not yet in place. It lets a file be written while something it must not
+/// precede (another file's commit) is still under way.
+#[must_use = "the file is put in place only by `commit`; dropping it removes the temporary"]
+#[derive(Debug)]
+pub struct Prepared {
+    temp: TempFile,
+    path: PathBuf,
+}
+
+impl Prepared {
+    /// Renames the temporary file over the target and makes the rename durable.
+    pub fn commit(self) -> Result<(), OutputError> {
+        let dir = parent_dir(&self.path);
+        fs::rename(self.temp.path(), &self.path).map_err(|source| OutputError::Io {
+            path: self.path.clone(),
+            source,
+        })?;
+        self.temp.disarm();
+        sync_dir(dir);
+        Ok(())
+    }
+}
+
+/// Writes and syncs the temporary file of [`write_atomic`] and stops before the rename.
+pub fn prepare_atomic<F>(path: &Path, write: F) -> Result<Prepared, OutputError>
+where
+    F: FnOnce(&mut dyn Write) -> io::Result<()>,
+{
+    let temp = prepare_inner(path, write).map_err(|source| OutputError::Io {
         path: path.to_owned(),
         source,
+    })?;
+    Ok(Prepared {
+        temp,
+        path: path.to_owned(),
     })
 }
 
-fn write_atomic_inner<F>(path: &Path, write: F) -> io::Result<()>
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+fn prepare_inner<F>(path: &Path, write: F) -> io::Result<TempFile>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
     let name = path
         .file_name()
         .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path does not name a file"))?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let mut temp_name = std::ffi::OsString::from(".");
     temp_name.push(name);
     temp_name.push(format!(
@@ -60,12 +100,7 @@ where
     write(&mut out)?;
     let file = out.into_inner().map_err(io::IntoInnerError::into_error)?;
     file.sync_all()?;
-    drop(file);
-
-    fs::rename(guard.path(), path)?;
-    guard.disarm();
-    sync_dir(dir);
-    Ok(())
+    Ok(guard)
 }
 
 /// Makes the rename itself durable. Best effort: the new file is already complete and in
@@ -81,6 +116,7 @@ fn sync_dir(dir: &Path) {
 
 /// Removes the temporary file when dropped, unless it was renamed into place. A drop guard
 /// (rather than explicit cleanup on each error path) also covers a panicking writer.
+#[derive(Debug)]
 struct TempFile(Option<PathBuf>);
 
 impl TempFile {
@@ -168,6 +204,29 @@ mod tests {
         let path = dir.path().join("no-such-dir").join("f.txt");
         let err = write_atomic(&path, |w| w.write_all(b"x")).unwrap_err();
         assert!(err.to_string().contains("f.txt"), "{err}");
+    }
+
+    /// A prepared file is complete under its temporary name while the old one stays in
+    /// place; commit swaps them, and dropping it instead leaves the old one and no temporary.
+    #[test]
+    fn prepared_files_appear_only_on_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("memory.csv");
+        fs::write(&path, b"old").unwrap();
+        let prepared = prepare_atomic(&path, |w| w.write_all(b"new")).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"old");
+        let entries = dir_entries(dir.path());
+        assert_eq!(entries.len(), 2, "{entries:?}");
+        let temp = entries.iter().find(|e| *e != "memory.csv").unwrap();
+        assert!(temp.starts_with(".memory.csv.tmp-"), "{temp}");
+        assert_eq!(fs::read(dir.path().join(temp)).unwrap(), b"new");
+        prepared.commit().unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"new");
+        assert_eq!(dir_entries(dir.path()), ["memory.csv"]);
+
+        drop(prepare_atomic(&path, |w| w.write_all(b"dropped")).unwrap());
+        assert_eq!(fs::read(&path).unwrap(), b"new");
+        assert_eq!(dir_entries(dir.path()), ["memory.csv"]);
     }
 
     #[test]

@@ -14,7 +14,7 @@ pub mod sweep_plots;
 
 use std::path::PathBuf;
 
-pub use self::atomic::write_atomic;
+pub use self::atomic::{Prepared, prepare_atomic, write_atomic};
 pub use self::csv::{
     CsvExporter, CsvWithText, Exporter, read_recording_csv, write_recording, write_table_csv,
 };
