@@ -90,13 +90,13 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
         .map(|c| text.iter().find(|(i, _)| *i == c).map(|(_, t)| t))
         .collect();
     // One reused buffer for all numbers: a recording has ~10^5 rows of ~20 fields.
-    let mut buf = ryu::Buffer::new();
+    let mut numbers = Numbers::default();
     for (row, &t) in rec.time.iter().enumerate() {
-        write_number(&mut out, &mut buf, t)?;
+        out.write_field(numbers.format(t))?;
         for (column, text) in rec.columns.iter().zip(&texts) {
             match text {
                 Some(text) => out.write_field(&text[row])?,
-                None => write_number(&mut out, &mut buf, column[row])?,
+                None => out.write_field(numbers.format(column[row]))?,
             }
         }
         out.write_record(None::<&[u8]>)?;
@@ -109,13 +109,13 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
 /// through the `csv` crate, whose per-field quoting scan cost as much as formatting the
 /// numbers (BENCHMARKS.md, round 9); the bytes are the same.
 fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
-    let mut buf = ryu::Buffer::new();
+    let mut numbers = Numbers::default();
     let mut bytes: Vec<u8> = Vec::with_capacity(1 << 16);
     for (row, &t) in rec.time.iter().enumerate() {
-        bytes.extend_from_slice(format_f64(&mut buf, t).as_bytes());
+        bytes.extend_from_slice(numbers.format(t).as_bytes());
         for column in &rec.columns {
             bytes.push(b',');
-            bytes.extend_from_slice(format_f64(&mut buf, column[row]).as_bytes());
+            bytes.extend_from_slice(numbers.format(column[row]).as_bytes());
         }
         bytes.push(b'\n');
         if bytes.len() > (1 << 16) - 1024 {
@@ -127,34 +127,63 @@ fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
     w.flush()
 }
 
-fn write_number<W: Write>(out: &mut Writer<W>, buf: &mut ryu::Buffer, v: f64) -> io::Result<()> {
-    out.write_field(format_f64(buf, v))?;
-    Ok(())
+/// Numbers in the shortest form that parses back to the identical `f64`: positional notation
+/// for ordinary magnitudes (1e-5 ≤ |v| < 1e16, and zero) because it is easier to read,
+/// scientific for the rest, because positional would spell 1e-300 with 300 zeros; integers
+/// without a trailing `.0`, exponents without `+`, and `NaN`, `inf` and `-inf` as Rust
+/// spells them.
+///
+/// `zmij` chooses these digits about 2× faster than `ryu` on the project's machine, which was
+/// 2–3× faster than `{}`/`{:e}` of the standard library (formatting is the largest cost of a
+/// recorded CSV run, BENCHMARKS.md rounds 3, 9 and 10). It switches between positional and
+/// scientific where `{}` and `{:e}` would, so only its `12.0` and `1e+16` need respelling.
+/// The text equals the standard library's except where two shortest digit strings are
+/// equally close to `v` (a tie is rounded to even, `{}` rounds up: `…511.2` instead of
+/// `…511.3` for 1990144188172511.25), and both parse back to `v`; it equals what `ryu`
+/// wrote in earlier versions byte for byte (tested).
+#[derive(Default)]
+struct Numbers {
+    digits: zmij::Buffer,
+    /// A text without the `+` of its exponent.
+    respelled: [u8; 32],
 }
 
-/// `v` in the shortest form that parses back to the identical `f64`: positional notation for
-/// ordinary magnitudes (1e-5 ≤ |v| < 1e16, and zero) because it is easier to read, scientific
-/// for the rest, because positional would spell 1e-300 with 300 zeros; integers without a
-/// trailing `.0`, `NaN`, `inf` and `-inf` as Rust spells them.
-///
-/// `ryu` chooses these digits 2–3× faster than `{}`/`{:e}` of the standard library (float
-/// formatting was the largest single cost of a recorded run) and uses the same switch between
-/// positional and scientific, so only its spelling of integers (`12.0`) and of exponents needs
-/// no change at all; the text equals the standard library's except where two shortest digit
-/// strings are equally close to `v` (ryu rounds such a tie to even, `{}` up: `…511.2` instead
-/// of `…511.3` for 1990144188172511.25), and both parse back to `v`.
-fn format_f64(buf: &mut ryu::Buffer, v: f64) -> &str {
-    if !v.is_finite() {
-        return if v.is_nan() {
-            "NaN"
-        } else if v > 0.0 {
-            "inf"
+impl Numbers {
+    fn format(&mut self, v: f64) -> &str {
+        if !v.is_finite() {
+            return if v.is_nan() {
+                "NaN"
+            } else if v > 0.0 {
+                "inf"
+            } else {
+                "-inf"
+            };
+        }
+        let text = self.digits.format_finite(v);
+        let text = text.strip_suffix(".0").unwrap_or(text);
+        // Only a positive exponent has a `+`, followed by its two or three digits (16 to 308)
+        // at the end; a scan of the whole text cost as much as choosing the digits.
+        let (b, n) = (text.as_bytes(), text.len());
+        let plus = if n < 5 {
+            None
+        } else if b[n - 3] == b'+' {
+            Some(n - 3)
+        } else if b[n - 4] == b'+' {
+            Some(n - 4)
         } else {
-            "-inf"
+            None
         };
+        match plus {
+            None => text,
+            Some(plus) => {
+                let (before, after) = (&text[..plus], &text[plus + 1..]);
+                let out = &mut self.respelled[..before.len() + after.len()];
+                out[..before.len()].copy_from_slice(before.as_bytes());
+                out[before.len()..].copy_from_slice(after.as_bytes());
+                std::str::from_utf8(out).expect("ASCII digits, sign, point and exponent")
+            }
+        }
     }
-    let text = buf.format_finite(v);
-    text.strip_suffix(".0").unwrap_or(text)
 }
 
 /// Writes `rec` to `path` atomically in the format of `exporter`. An inconsistent recording
@@ -300,11 +329,21 @@ mod tests {
     ];
 
     fn formatted(v: f64) -> String {
-        format_f64(&mut ryu::Buffer::new(), v).to_owned()
+        Numbers::default().format(v).to_owned()
+    }
+
+    /// What the CSV files held while `ryu` formatted them: the same bytes are still written.
+    fn ryu_formatted(v: f64) -> String {
+        if !v.is_finite() {
+            return formatted(v);
+        }
+        let mut buf = ryu::Buffer::new();
+        let text = buf.format_finite(v);
+        text.strip_suffix(".0").unwrap_or(text).to_owned()
     }
 
     /// The standard library's shortest round-trip text, switched between `{}` and `{:e}` at
-    /// the magnitudes `format_f64` documents: the spelling the CSV files had before `ryu`.
+    /// the magnitudes [`Numbers`] documents: the spelling the CSV files had before `ryu`.
     fn std_formatted(v: f64) -> String {
         let m = v.abs();
         if m == 0.0 || !v.is_finite() || (1e-5..1e16).contains(&m) {
@@ -334,6 +373,7 @@ mod tests {
         let mut ties = 0;
         for v in values {
             let ours = formatted(v);
+            assert_eq!(ours, ryu_formatted(v), "{v:e}");
             let std = std_formatted(v);
             if v.is_nan() {
                 assert_eq!(ours, "NaN");
@@ -500,11 +540,10 @@ mod tests {
                 out.write_field(name).unwrap();
             }
             out.write_record(None::<&[u8]>).unwrap();
-            let mut buf = ryu::Buffer::new();
             for (row, &t) in rec.time.iter().enumerate() {
-                write_number(&mut out, &mut buf, t).unwrap();
+                out.write_field(ryu_formatted(t)).unwrap();
                 for column in &rec.columns {
-                    write_number(&mut out, &mut buf, column[row]).unwrap();
+                    out.write_field(ryu_formatted(column[row])).unwrap();
                 }
                 out.write_record(None::<&[u8]>).unwrap();
             }
