@@ -19,16 +19,21 @@
 #                             shared machine cannot; it does not see latency, so a change
 #                             that only shortens a dependency chain needs the CPU figures
 #
-# `trial` and `instructions` run one lane (--jobs 1): they measure a trial's own cost.
+#   recording DIR FORMAT      instructions of recording one trial in FORMAT (csv or parquet)
+#                             under cachegrind: Ir(one trial, recorded) - Ir(one trial, no
+#                             [record]): the master's row copies, the formatting and the write
+#
+# `trial`, `instructions` and `recording` run one lane (--jobs 1): they measure a trial's own
+# cost.
 #
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
 # cargo build --release -p ckcm --example floor); GNU time and perf
 # (apt-get install -y time linux-perf; valgrind for `instructions`). CKCM_ORCHESTRATOR
 # picks another CLI binary.
-# Usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions ...
+# Usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions|recording ...
 set -euo pipefail
 
-mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions ...}
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions|recording ...}
 shift
 repo=$(cd "$(dirname "$0")/.." && pwd)
 bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
@@ -102,8 +107,23 @@ instructions)
     ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
     printf '%s: %d instructions per trial\n' "$dir" $((($(ir "$work/vg3") - $(ir "$work/vg1")) / 2))
     ;;
+recording)
+    dir=${1:?recording DIR FORMAT}
+    format=${2:?recording DIR FORMAT}
+    for keep in none record; do
+        s=$(scenario "$dir" 1 "$keep")
+        # Of the shipped recorded trials only trial 0 exists in a one-trial campaign.
+        sed -i 's/^trials = \[0, 1, 2, 3, 9\]$/trials = [0]/' "$s"
+        valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg-$keep" \
+            "$bin" run "$s" --out "$work/o-$keep" --force --jobs 1 \
+            --record-format "$format" >/dev/null 2>"$work/vg-$keep"
+    done
+    ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
+    printf '%s: %d instructions to record one trial in %s\n' "$dir" \
+        $(($(ir "$work/vg-record") - $(ir "$work/vg-none"))) "$format"
+    ;;
 *)
-    echo "unknown mode $mode: trial, floor, hlcs or instructions" >&2
+    echo "unknown mode $mode: trial, floor, hlcs, instructions or recording" >&2
     exit 2
     ;;
 esac
