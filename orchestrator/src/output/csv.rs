@@ -353,13 +353,18 @@ mod tests {
         }
     }
 
-    /// Every awkward value and 10^6 pseudo-random bit patterns and small magnitudes: the text
-    /// parses back to the same bits and equals the standard library's, except in a tie between
-    /// two equally close shortest digit strings, where it has the same length.
+    /// Every awkward value, 10^6 pseudo-random bit patterns and small magnitudes, subnormals,
+    /// the powers of ten and integers small and large: the text equals what `ryu` wrote,
+    /// parses back to the same bits and equals the standard library's, except in a tie
+    /// between two equally close shortest digit strings, where it has the same length.
     #[test]
     fn numbers_match_the_standard_library_and_round_trip() {
         let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
         let mut values: Vec<f64> = AWKWARD.to_vec();
+        values.extend((-323..=308).map(|e| format!("1e{e}").parse::<f64>().unwrap()));
+        values.extend((0..64).map(|b| 2f64.powi(b)));
+        values.extend((-2000..2000).map(f64::from));
+        values.extend((1..2000_u64).map(|m| f64::from_bits(m * 0x1_0000_0001)));
         for i in 0..1_000_000_u32 {
             x ^= x << 13;
             x ^= x >> 7;
