@@ -119,12 +119,58 @@ impl FrictionCurve {
     #[inline]
     pub fn smoothed_sign(self, x: f64) -> f64 {
         match self {
-            FrictionCurve::Tanh => x.tanh(),
+            FrictionCurve::Tanh => fdlibm_tanh::tanh(x),
             FrictionCurve::Algebraic => {
                 let x = x.clamp(-Self::ALGEBRAIC_SATURATION, Self::ALGEBRAIC_SATURATION);
                 x / (1.0 + x * x).sqrt()
             }
         }
+    }
+}
+
+/// tanh x as fdlibm computes it from expm1, step for step. glibc's `tanh` (what `f64::tanh`
+/// calls on Linux) is that code, so the bits are the same there
+/// (`tests::tanh_is_libm_tanh_bit_for_bit`); elsewhere it is fdlibm's tanh on that
+/// platform's expm1, the same on every path of the model. Written out so each value costs
+/// one libm call instead of two (`tanh` calling `expm1`), and so six legs need no branch
+/// and run two at a time (BENCHMARKS.md, round 11).
+mod fdlibm_tanh {
+    /// Below 2⁻⁵⁵ tanh x rounds to x.
+    const TINY: f64 = f64::from_bits(0x3c80_0000_0000_0000);
+
+    /// The argument of expm1 for |x| = `a`: 2|x| from 1 on, −2|x| below.
+    #[inline(always)]
+    pub(super) fn expm1_argument(a: f64) -> f64 {
+        if a >= 1.0 { 2.0 * a } else { -2.0 * a }
+    }
+
+    /// tanh x from |x| = `a` and t = expm1 of [`expm1_argument`]: 1 − 2 / (t + 2) from 1 on,
+    /// −t / (t + 2) below; x (1 + x), which is x, below 2⁻⁵⁵ (±0 included); NaN stays NaN.
+    /// fdlibm returns 1 from 22 on without calling expm1; the formula rounds to 1 there by
+    /// itself (infinity included).
+    #[inline(always)]
+    pub(super) fn finish(x: f64, a: f64, t: f64) -> f64 {
+        let big = a >= 1.0;
+        let q = if big { 2.0 } else { -t } / (t + 2.0);
+        let z = if big { 1.0 - q } else { q };
+        let signed = if x.is_sign_negative() { -z } else { z };
+        if a < TINY || a.is_nan() { x } else { signed }
+    }
+
+    /// tanh x.
+    #[inline]
+    pub(super) fn tanh(x: f64) -> f64 {
+        let a = x.abs();
+        finish(x, a, expm1_argument(a).exp_m1())
+    }
+
+    /// tanh of six values: the six libm calls first, then the rest on two values at once.
+    #[inline(always)]
+    pub(super) fn tanh6(x: &[f64; 6]) -> [f64; 6] {
+        let a: [f64; 6] = std::array::from_fn(|i| x[i].abs());
+        let arg: [f64; 6] = std::array::from_fn(|i| expm1_argument(a[i]));
+        let t: [f64; 6] = std::array::from_fn(|i| arg[i].exp_m1());
+        std::array::from_fn(|i| finish(x[i], a[i], t[i]))
     }
 }
 
@@ -147,6 +193,18 @@ impl Friction {
         velocity: 0.02,
         curve: FrictionCurve::Tanh,
     };
+
+    /// [`Friction::force`] of six legs, the same bits.
+    #[inline(always)]
+    pub(crate) fn force6(&self, ldot: &[f64; 6]) -> [f64; 6] {
+        match self.curve {
+            FrictionCurve::Tanh => {
+                let s = fdlibm_tanh::tanh6(&std::array::from_fn(|i| ldot[i] / self.velocity));
+                std::array::from_fn(|i| -self.viscous * ldot[i] - self.coulomb * s[i])
+            }
+            FrictionCurve::Algebraic => std::array::from_fn(|i| self.force(ldot[i])),
+        }
+    }
 
     /// Friction force on one leg at leg rate `ldot`, N (opposes the motion).
     #[inline]
@@ -430,6 +488,60 @@ mod tests {
     }
 
     /// The default is tanh, and its force is the tanh law written out bit for bit.
+    /// The friction's tanh is glibc's to the bit. Only where `f64::tanh` is glibc's: other
+    /// C libraries compute tanh their own way.
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    #[test]
+    fn tanh_is_libm_tanh_bit_for_bit() {
+        let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        let mut values = vec![
+            0.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::from_bits(0x3c80_0000_0000_0000),
+            f64::from_bits(0x3c7f_ffff_ffff_ffff),
+            1.0,
+            1.0 - f64::EPSILON / 2.0,
+            1.0 + f64::EPSILON,
+            22.0,
+            22.0 - 22.0 * f64::EPSILON,
+            19.06,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        // Every binade from 2⁻⁶⁰ to 2⁶, sixteen bit patterns each, and a sweep through the
+        // leg rates / friction velocity of a trial.
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        for e in -60..=6 {
+            for _ in 0..16 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let m = f64::from_bits(0x3ff0_0000_0000_0000 | (state >> 12));
+                values.push(m * 2f64.powi(e));
+            }
+        }
+        values.extend((0..200_000).map(|k| (f64::from(k) - 100_000.0) * 2.5e-4));
+        let negated: Vec<f64> = values.iter().map(|v| -v).collect();
+        values.extend(negated);
+        values.resize(values.len().next_multiple_of(6), 0.5);
+        for chunk in values.chunks_exact(6) {
+            let six: [f64; 6] = chunk.try_into().unwrap();
+            let ours6 = fdlibm_tanh::tanh6(&six);
+            for (k, &x) in six.iter().enumerate() {
+                let libm = x.tanh();
+                let ours = fdlibm_tanh::tanh(x);
+                assert!(same(ours, libm), "tanh({x:e}) = {ours:e}, libm {libm:e}");
+                assert!(
+                    same(ours6[k], libm),
+                    "tanh6 at {x:e}: {:e}, libm {libm:e}",
+                    ours6[k]
+                );
+            }
+        }
+    }
+
     #[test]
     fn default_curve_is_tanh_unchanged() {
         let f = Friction::default();

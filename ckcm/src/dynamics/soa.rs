@@ -127,8 +127,7 @@ impl Mechanism {
         // The friction's six libm calls come before the mass matrix, not after its
         // factorisation, where more values are live across them: 3–4.5 % less CPU per
         // trial of the FMI-free floor, same bits (BENCHMARKS.md, round 6).
-        let friction: [f64; LEGS] =
-            std::array::from_fn(|i| self.params.friction.force(leg_rates[i]));
+        let friction = self.params.friction.force6(&leg_rates);
 
         let inertia_world = self.inertia_world_from(&rot);
         let mass = self.mass_matrix_soa(&r, &length, &jac, &inertia_world);
