@@ -106,7 +106,7 @@ pub enum FrictionCurve {
     #[default]
     Tanh,
     /// s(x) = x / √(1 + x²): a different model, one square root and one division instead
-    /// of libm's `tanh` (which calls `expm1`), offered for speed in sweeps.
+    /// of libm's `expm1` and a division, offered for speed in sweeps.
     Algebraic,
 }
 

@@ -212,7 +212,7 @@ impl Differences {
 /// largest of |a|, |b|, the largest magnitude in that column, and 1 (SI unit).
 ///
 /// Why not |a| alone: the two builds use different C math libraries (glibc against
-/// mingw-w64's msvcrt), whose sin, cos, tanh or exp may round differently by an ulp. The
+/// mingw-w64's msvcrt), whose sin, cos, expm1 or exp may round differently by an ulp. The
 /// leg lengths then differ by an ulp or two of 0.7 m (~2e-16 m); a leg error e = l_d − l of
 /// 1e-5 m computed from them differs by 1e-11 of itself, a force by Kp·2e-16 m ≈ 1e-11 N,
 /// and an orientation that is round-off around zero (the line has none) by 100 %, while
