@@ -77,6 +77,12 @@ fn mass_row<const P: usize>(
 
 impl Mechanism {
     /// Forward dynamics ν̇ = M⁻¹ (Jᵀ(τ + friction(l̇)) − b), with `tau` the actuator forces.
+    ///
+    /// Always inlined (its one caller in a trial is the integrators' derivative): returned
+    /// through memory, the result's six values were written one by one and read back two at
+    /// a time, a load the processor cannot forward from the stores, stalling every RK4
+    /// stage; 2.5–3.3 % of the FMI-free trial (BENCHMARKS.md, round 11).
+    #[inline(always)]
     pub fn forward_dynamics(
         &self,
         pose: &Pose,
