@@ -114,7 +114,12 @@ def time_orchestrator_cli(binary: Path, fmu_dir: Path, repeats: int, extra: int)
 
         def wall(trials: int) -> float:
             # --force: every run reuses the folder, which a finished campaign occupies.
-            cmd = [str(binary), "run", str(scenario), "--trials", str(trials), "--out", tmp + "/out", "--force"]
+            # --jobs 1: one lane, one trial at a time, as the fmpy master runs them; on more
+            # cores the CLI would run trials side by side and halve the time per trial.
+            cmd = [
+                str(binary), "run", str(scenario), "--trials", str(trials), "--out", tmp + "/out", "--force",
+                "--jobs", "1",
+            ]
             started = time.perf_counter()
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             return time.perf_counter() - started
