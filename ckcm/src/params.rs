@@ -200,7 +200,7 @@ impl Friction {
         match self.curve {
             FrictionCurve::Tanh => {
                 let s = fdlibm_tanh::tanh6(&std::array::from_fn(|i| ldot[i] / self.velocity));
-                std::array::from_fn(|i| -self.viscous * ldot[i] - self.coulomb * s[i])
+                std::array::from_fn(|i| self.with_sign(ldot[i], s[i]))
             }
             FrictionCurve::Algebraic => std::array::from_fn(|i| self.force(ldot[i])),
         }
@@ -209,7 +209,13 @@ impl Friction {
     /// Friction force on one leg at leg rate `ldot`, N (opposes the motion).
     #[inline]
     pub fn force(&self, ldot: f64) -> f64 {
-        -self.viscous * ldot - self.coulomb * self.curve.smoothed_sign(ldot / self.velocity)
+        self.with_sign(ldot, self.curve.smoothed_sign(ldot / self.velocity))
+    }
+
+    /// The force at leg rate `ldot` given s(l̇ / v), N.
+    #[inline(always)]
+    fn with_sign(&self, ldot: f64, s: f64) -> f64 {
+        -self.viscous * ldot - self.coulomb * s
     }
 }
 
@@ -487,7 +493,6 @@ mod tests {
         assert!(((s(h) - s(-h)) / (2.0 * h) - 1.0).abs() < 1e-10);
     }
 
-    /// The default is tanh, and its force is the tanh law written out bit for bit.
     /// The friction's tanh is glibc's to the bit. Only where `f64::tanh` is glibc's: other
     /// C libraries compute tanh their own way.
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -542,6 +547,7 @@ mod tests {
         }
     }
 
+    /// The default is tanh, and its force is the tanh law written out bit for bit.
     #[test]
     fn default_curve_is_tanh_unchanged() {
         let f = Friction::default();
