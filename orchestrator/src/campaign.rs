@@ -210,7 +210,9 @@ impl TrialSummary {
 }
 
 /// FNV-1a, 64 bit: a stable fingerprint across builds and platforms (std's hasher is not
-/// guaranteed stable), over a handful of bytes where speed does not matter.
+/// guaranteed stable). Over the scenario and its FMU files it costs about 8 M instructions
+/// per run (BENCHMARKS.md, round 11); another hash would make `--resume` refuse campaigns
+/// begun by earlier versions.
 pub(crate) fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
     bytes.iter().fold(hash, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
