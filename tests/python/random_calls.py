@@ -11,6 +11,9 @@ references, NULL arrays, NaN and infinite values, wrong communication points, an
 serialized states that were cut short or had bytes flipped. The last line printed is a JSON
 summary; the test reads it. The process must exit 0: a segmentation fault or an abort is a
 failure of the FMU, whatever the calls were.
+
+ctypes rather than fmpy's `FMU2Slave`: fmpy raises on every error status and checks some
+arguments itself, so the calls that matter here would not all reach the library.
 """
 
 from __future__ import annotations
@@ -122,10 +125,10 @@ def array(ctype, values: list):
     return (ctype * max(1, len(values)))(*values)
 
 
-def main(fmu: Path, seed: int, sequences: int) -> dict:
+def main(fmu: Path, unpacked: Path, seed: int, sequences: int) -> dict:
+    """The summary of `sequences` random sequences on `fmu`, unpacked into `unpacked`."""
     rng = random.Random(seed)
     md = read_model_description(str(fmu))
-    unpacked = Path(tempfile.mkdtemp(prefix="random-calls-"))
     with zipfile.ZipFile(fmu) as z:
         z.extractall(unpacked)
     lib = Library(unpacked / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so")
@@ -431,4 +434,5 @@ def main(fmu: Path, seed: int, sequences: int) -> dict:
 
 if __name__ == "__main__":
     fmu_arg, seed_arg, count_arg = sys.argv[1:4]
-    print(json.dumps(main(Path(fmu_arg), int(seed_arg), int(count_arg))))
+    with tempfile.TemporaryDirectory(prefix="random-calls-") as tmp:
+        print(json.dumps(main(Path(fmu_arg), Path(tmp), int(seed_arg), int(count_arg))))
