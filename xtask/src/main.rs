@@ -9,8 +9,9 @@
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
 //! - `cargo xtask test`: check formatting and clippy, package the FMUs, cross-build
 //!   `orchestrator.exe` and prepare Wine (installed if missing) for the win64 tests, run
-//!   every Rust test, create the Python virtualenv (pinned fmpy, numpy, pytest) and run the
-//!   fmpy tests.
+//!   every Rust test, run the FMU-level ABI tests again cross-built for win64 under Wine
+//!   against the DLLs, create the Python virtualenv (pinned fmpy, numpy, pytest) and run
+//!   the fmpy tests.
 #![deny(unsafe_code)]
 
 mod docs;
@@ -72,7 +73,8 @@ fn main() -> Result<()> {
                 .args(["test", "--workspace", "--release"])
                 .env("CARGO_TARGET_DIR", target_dir(&root))
                 .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
-                .envs(wine_env))?;
+                .envs(wine_env.clone()))?;
+            win64::run_abi_tests(&root, &wine_env)?;
             python::run_pytest(&root)?;
         }
         _ => bail!(

@@ -112,6 +112,60 @@ pub fn prepare_wine(root: &Path) -> Result<Vec<(&'static str, PathBuf)>> {
     ])
 }
 
+/// The FMU-level Rust tests that drive the packaged FMUs through the C ABI, cross-built for
+/// win64 and run under Wine, so the same checks hold for the DLLs Windows tools load: every
+/// function in every state, batches, refused inputs, the workspace limits, and mutated
+/// serialized states.
+const WIN64_ABI_TESTS: &[&str] = &[
+    "fmu_illegal_calls",
+    "fmu_abi",
+    "fmu_hardening",
+    "fuzz_fmu_state",
+];
+
+/// Runs [`WIN64_ABI_TESTS`] under Wine against the FMUs in `<target dir>/fmu`, with the
+/// Wine prefix of [`prepare_wine`] (`wine_env`).
+pub fn run_abi_tests(root: &Path, wine_env: &[(&'static str, PathBuf)]) -> Result<()> {
+    let target = target_dir(root);
+    let test = |extra: &[&str]| {
+        // Cargo runs each test executable with `wine`, which takes the prefix and the quiet
+        // settings from the environment it inherits.
+        let mut cmd = wine_command(&target.join("wine").join("prefix"), cargo().as_str());
+        cmd.current_dir(root)
+            .env("CARGO_TARGET_DIR", &target)
+            .env("CARGO_TARGET_X86_64_PC_WINDOWS_GNU_RUNNER", "wine")
+            .env("CKCM_FMU_DIR", wine_path(&target.join("fmu")))
+            .envs(wine_env.iter().map(|(k, v)| (*k, v)))
+            .args([
+                "test",
+                "--release",
+                "--quiet",
+                "--target",
+                TARGET,
+                "-p",
+                "orchestrator",
+            ]);
+        for name in WIN64_ABI_TESTS {
+            cmd.args(["--test", name]);
+        }
+        cmd.args(extra);
+        cmd
+    };
+    run(&mut test(&["--no-run"]))?;
+    // The test executables find the stand-in beside them, as orchestrator.exe does.
+    let stand_in = "bcryptprimitives.dll";
+    let from = target.join("wine").join("bin").join(stand_in);
+    let to = release_dir(&target).join("deps").join(stand_in);
+    fs::copy(&from, &to)
+        .with_context(|| format!("cannot copy {} to {}", from.display(), to.display()))?;
+    run(&mut test(&[]))
+}
+
+/// The Windows name Wine gives a Linux path (its `Z:` drive is `/`).
+fn wine_path(path: &Path) -> String {
+    format!("Z:{}", path.display()).replace('/', "\\")
+}
+
 /// A Wine tool run in `prefix`, quiet, without the Mono and Gecko installers (a console
 /// program needs neither).
 fn wine_command(prefix: &Path, program: &str) -> Command {
