@@ -73,8 +73,8 @@ fn main() -> Result<()> {
                 .args(["test", "--workspace", "--release"])
                 .env("CARGO_TARGET_DIR", target_dir(&root))
                 .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
-                .envs(wine_env.clone()))?;
-            win64::run_abi_tests(&root, &wine_env)?;
+                .envs(wine_env))?;
+            win64::run_abi_tests(&root)?;
             python::run_pytest(&root)?;
         }
         _ => bail!(

@@ -123,9 +123,9 @@ const WIN64_ABI_TESTS: &[&str] = &[
     "fuzz_fmu_state",
 ];
 
-/// Runs [`WIN64_ABI_TESTS`] under Wine against the FMUs in `<target dir>/fmu`, with the
-/// Wine prefix of [`prepare_wine`] (`wine_env`).
-pub fn run_abi_tests(root: &Path, wine_env: &[(&'static str, PathBuf)]) -> Result<()> {
+/// Runs [`WIN64_ABI_TESTS`] under Wine against the FMUs in `<target dir>/fmu`, in the Wine
+/// prefix and with the stand-in DLL that [`prepare_wine`] made.
+pub fn run_abi_tests(root: &Path) -> Result<()> {
     let target = target_dir(root);
     let test = |extra: &[&str]| {
         // Cargo runs each test executable with `wine`, which takes the prefix and the quiet
@@ -135,7 +135,6 @@ pub fn run_abi_tests(root: &Path, wine_env: &[(&'static str, PathBuf)]) -> Resul
             .env("CARGO_TARGET_DIR", &target)
             .env("CARGO_TARGET_X86_64_PC_WINDOWS_GNU_RUNNER", "wine")
             .env("CKCM_FMU_DIR", wine_path(&target.join("fmu")))
-            .envs(wine_env.iter().map(|(k, v)| (*k, v)))
             .args([
                 "test",
                 "--release",
