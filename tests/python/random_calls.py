@@ -279,21 +279,17 @@ def main(fmu: Path, unpacked: Path, seed: int, sequences: int) -> dict:
                         n,
                         None if null else array(c_double, [0.0] * len(vrs)),
                     )
-            elif op == 4:
-                vrs = references("Integer")
-                values = [rng.choice([0, 1, 2, 5, -1, 2**31 - 1, -(2**31)]) for _ in vrs]
-                lib(
-                    rng.choice(["fmi2SetInteger", "fmi2GetInteger"]),
-                    c,
-                    array(c_uint, vrs),
-                    len(vrs),
-                    array(c_int, values),
+            elif op in (4, 5):
+                # Integer and Boolean values travel as C ints alike.
+                kind, choices = (
+                    ("Integer", [0, 1, 2, 5, -1, 2**31 - 1, -(2**31)])
+                    if op == 4
+                    else ("Boolean", [0, 1, 2, -5])
                 )
-            elif op == 5:
-                vrs = references("Boolean")
-                values = [rng.choice([0, 1, 2, -5]) for _ in vrs]
+                vrs = references(kind)
+                values = [rng.choice(choices) for _ in vrs]
                 lib(
-                    rng.choice(["fmi2SetBoolean", "fmi2GetBoolean"]),
+                    rng.choice([f"fmi2Set{kind}", f"fmi2Get{kind}"]),
                     c,
                     array(c_uint, vrs),
                     len(vrs),
