@@ -48,9 +48,7 @@ from fmpy.fmi2 import (
     free,
 )
 
-#: fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal. fmi2Pending (4) is only for
-#: asynchronous steps, which neither FMU offers.
-STATUSES = {0, 1, 2, 3, 5}
+#: fmi2CoSimulation of `fmi2Type`.
 CO_SIMULATION = 1
 
 

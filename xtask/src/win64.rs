@@ -20,6 +20,16 @@ pub const TARGET: &str = "x86_64-pc-windows-gnu";
 /// The MinGW-w64 C compiler, which Rust uses as the linker (and `cc` for C code).
 const MINGW_GCC: &str = "x86_64-w64-mingw32-gcc";
 
+/// The test-only stand-in for Wine's incomplete `bcryptprimitives.dll`, placed beside every
+/// executable the Wine tests run.
+const STAND_IN_DLL: &str = "bcryptprimitives.dll";
+
+/// `<target dir>/wine`: `bin` (orchestrator.exe and the stand-in DLL) and `prefix` (the
+/// Wine prefix).
+fn wine_dir(target: &Path) -> PathBuf {
+    target.join("wine")
+}
+
 /// `<target dir>/x86_64-pc-windows-gnu/release`.
 pub fn release_dir(target: &Path) -> PathBuf {
     target.join(TARGET).join("release")
@@ -72,7 +82,7 @@ pub fn prepare_wine(root: &Path) -> Result<Vec<(&'static str, PathBuf)>> {
     ensure_wine()?;
     cargo_build(root, &["orchestrator"])?;
     let target = target_dir(root);
-    let dir = target.join("wine");
+    let dir = wine_dir(&target);
     let bin = dir.join("bin");
     fs::create_dir_all(&bin).with_context(|| format!("cannot create {}", bin.display()))?;
     let exe = bin.join("orchestrator.exe");
@@ -89,7 +99,7 @@ pub fn prepare_wine(root: &Path) -> Result<Vec<(&'static str, PathBuf)>> {
             "-static-libgcc",
         ])
         .arg("-o")
-        .arg(bin.join("bcryptprimitives.dll"))
+        .arg(bin.join(STAND_IN_DLL))
         .arg(root.join("tests/wine/bcryptprimitives.c"))
         .arg("-lbcrypt"))?;
 
@@ -130,7 +140,7 @@ pub fn run_abi_tests(root: &Path) -> Result<()> {
     let test = |extra: &[&str]| {
         // Cargo runs each test executable with `wine`, which takes the prefix and the quiet
         // settings from the environment it inherits.
-        let mut cmd = wine_command(&target.join("wine").join("prefix"), cargo().as_str());
+        let mut cmd = wine_command(&wine_dir(&target).join("prefix"), cargo().as_str());
         cmd.current_dir(root)
             .env("CARGO_TARGET_DIR", &target)
             .env("CARGO_TARGET_X86_64_PC_WINDOWS_GNU_RUNNER", "wine")
@@ -152,9 +162,8 @@ pub fn run_abi_tests(root: &Path) -> Result<()> {
     };
     run(&mut test(&["--no-run"]))?;
     // The test executables find the stand-in beside them, as orchestrator.exe does.
-    let stand_in = "bcryptprimitives.dll";
-    let from = target.join("wine").join("bin").join(stand_in);
-    let to = release_dir(&target).join("deps").join(stand_in);
+    let from = wine_dir(&target).join("bin").join(STAND_IN_DLL);
+    let to = release_dir(&target).join("deps").join(STAND_IN_DLL);
     fs::copy(&from, &to)
         .with_context(|| format!("cannot copy {} to {}", from.display(), to.display()))?;
     run(&mut test(&[]))
