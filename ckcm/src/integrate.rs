@@ -67,6 +67,10 @@ pub enum IntegrationError {
     StepTooSmall { h_min: f64, offset: f64 },
     #[error("adaptive integration needed more than {max_steps} steps in one interval")]
     TooManySteps { max_steps: usize },
+    #[error(
+        "an interval of {h} s needs more than {RK4_MAX_SUBSTEPS:e} RK4 substeps of at most {max_step} s"
+    )]
+    TooManySubsteps { h: f64, max_step: f64 },
 }
 
 /// dy/dt with the actuator forces `tau` held constant.
@@ -90,20 +94,47 @@ fn renormalise(y: &mut Y) {
     y.fixed_rows_mut::<4>(3).unscale_mut(norm);
 }
 
-/// Classic fourth-order Runge–Kutta with a fixed number of substeps per interval.
+/// Classic fourth-order Runge–Kutta with equal substeps over each interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rk4 {
-    /// Substeps per communication interval. Default 1.
+    /// Fewest substeps per communication interval. Default 1.
     pub substeps: u32,
+    /// Longest substep, s: a longer interval is split into ⌈h / max_step⌉ substeps (when
+    /// that is more than `substeps`). Default ∞, no limit. RK4 is only conditionally
+    /// stable, and the legs' viscous friction makes the model stiff enough that one RK4
+    /// step of 10 ms already drifts, so the plant FMU caps it (its `rk4_max_step`).
+    pub max_step: f64,
 }
 
 impl Default for Rk4 {
     fn default() -> Self {
-        Self { substeps: 1 }
+        Self {
+            substeps: 1,
+            max_step: f64::INFINITY,
+        }
     }
 }
 
+/// Most RK4 substeps in one interval, so that a huge interval fails instead of running
+/// for hours.
+const RK4_MAX_SUBSTEPS: f64 = 1e6;
+
 impl Rk4 {
+    /// Substeps for an interval of `h` seconds: `substeps`, or more where `h` exceeds
+    /// `max_step`. An interval longer than `max_step` by rounding alone (1e-9 relative,
+    /// as a master that adds up its steps makes) is not split.
+    pub fn substeps_for(&self, h: f64) -> Result<u32, IntegrationError> {
+        let needed = (h / self.max_step * (1.0 - 1e-9)).ceil();
+        if needed > RK4_MAX_SUBSTEPS {
+            return Err(IntegrationError::TooManySubsteps {
+                h,
+                max_step: self.max_step,
+            });
+        }
+        // `needed` is in [0, 1e6] here, or NaN (h NaN), which `as` maps to 0.
+        Ok(self.substeps.max(needed as u32).max(1))
+    }
+
     /// Advances `state` by `h` seconds with `tau` held constant.
     pub fn advance(
         &self,
@@ -112,7 +143,7 @@ impl Rk4 {
         tau: &Vector6<f64>,
         h: f64,
     ) -> Result<(), IntegrationError> {
-        let n = self.substeps.max(1);
+        let n = self.substeps_for(h)?;
         let dt = h / f64::from(n);
         let mut y = state.to_vector();
         for _ in 0..n {

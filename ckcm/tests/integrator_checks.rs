@@ -23,7 +23,12 @@ fn run(m: &Mechanism, t: f64, n: u32) -> [f64; 13] {
         pose: m.home(),
         twist: Vector6::new(0.05, -0.04, 0.03, 1.2, -0.9, 1.5),
     };
-    Rk4 { substeps: n }.advance(m, &mut s, &tau, t).unwrap();
+    Rk4 {
+        substeps: n,
+        ..Rk4::default()
+    }
+    .advance(m, &mut s, &tau, t)
+    .unwrap();
     let q = s.pose.q_world.as_ref().coords;
     let p = s.pose.p_world;
     let w = s.twist;

@@ -33,7 +33,7 @@ use md::vr;
 
 /// The Real parameters the plant reads itself (initial pose, integrator tolerances,
 /// workspace, sensor noise); every other Real parameter is a mechanism parameter.
-const OWN_PARAMETERS: [u32; 12] = [
+const OWN_PARAMETERS: [u32; 13] = [
     vr::INITIAL_POSE_1,
     vr::INITIAL_POSE_2,
     vr::INITIAL_POSE_3,
@@ -42,6 +42,7 @@ const OWN_PARAMETERS: [u32; 12] = [
     vr::INITIAL_POSE_6,
     vr::RELATIVE_TOLERANCE,
     vr::ABSOLUTE_TOLERANCE,
+    vr::RK4_MAX_STEP,
     vr::LENGTH_MIN,
     vr::LENGTH_MAX,
     vr::LENGTH_NOISE_SIGMA,
@@ -164,8 +165,15 @@ impl CkcmPlant {
                         "substeps = {substeps} must be at least 1"
                     )));
                 }
+                let max_step = self.values.real(vr::RK4_MAX_STEP);
+                if !(max_step.is_finite() && max_step > 0.0) {
+                    return Err(ModelError::error(format!(
+                        "rk4_max_step = {max_step} s must be positive"
+                    )));
+                }
                 Ok(Integrator::Rk4(Rk4 {
                     substeps: substeps as u32,
+                    max_step,
                 }))
             }
             INTEGRATOR_DORMAND_PRINCE => {

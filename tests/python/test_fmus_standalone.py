@@ -62,6 +62,26 @@ def test_plant_holds_home_under_static_forces(plant_fmu: Path) -> None:
     np.testing.assert_allclose(position, np.tile([0.0, 0.0, 0.5], (len(result), 1)), atol=1e-4)
 
 
+def test_plant_holds_home_at_fmpy_default_step_sizes(plant_fmu: Path) -> None:
+    """A master stepping at 10 or 16 ms (fmpy's own choice for a 16 s run without
+    `output_interval`) gets 1 ms RK4 substeps (`rk4_max_step`): one RK4 step that long
+    drifts off home by centimetres and, at 16 ms, hits the stroke end."""
+    for interval in (0.01, 0.016):
+        result = simulate_fmu(
+            str(plant_fmu),
+            fmi_type="CoSimulation",
+            output_interval=interval,
+            stop_time=16.0,
+            start_values={name: HOLD_FORCE for name in legs("force")},
+            output=legs("pose"),
+        )
+        assert result["time"][-1] == pytest.approx(16.0, abs=1e-9), interval
+        # 28.5315 N is the static force to 6 digits: the platform creeps by under 1e-6 m
+        # in 16 s, against centimetres for one RK4 step per interval.
+        z = result["pose[3]"]
+        assert np.max(np.abs(z - 0.5)) < 1e-5, f"{interval} s steps: z reached {z.max()} m"
+
+
 def test_plant_falls_without_forces(plant_fmu: Path) -> None:
     z = simulate_plant(plant_fmu, 0.0)["pose[3]"]
     assert z[0] == pytest.approx(0.5, abs=1e-12)

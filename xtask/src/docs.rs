@@ -16,7 +16,8 @@ fn semantics(model_identifier: &str) -> &'static str {
              (the default) or, with <code>friction_curve</code> = algebraic, s(x) = x / &radic;(1 + x&sup2;): \
              a cheaper curve with the same slope at rest and the same limits, but a different model. \
              The six <code>force</code> inputs are held constant over each communication step; \
-             the rigid-body model is integrated over the step with RK4 (<code>substeps</code> per step) or \
+             the rigid-body model is integrated over the step with RK4 (<code>substeps</code> per step, \
+             more where the step is longer than <code>rk4_max_step</code>, 1 ms by default) or \
              adaptive Dormand&ndash;Prince 5(4) (<code>relative_tolerance</code>, <code>absolute_tolerance</code>). \
              The outputs at a communication point are the state at that time, so they do not depend \
              directly on the inputs (no direct feedthrough). Variable communication step sizes are \
