@@ -472,6 +472,9 @@ fn build_axis(
     }
     let samples = || -> Result<usize, String> {
         match a.samples {
+            Some(n) if n > MAX_CASES => Err(format!(
+                "samples = {n} would make more than {MAX_CASES} cases"
+            )),
             Some(n) if n >= 1 => Ok(n),
             Some(_) => Err("samples must be at least 1".into()),
             None => Err("a random axis needs `samples`".into()),
@@ -611,9 +614,12 @@ fn build_axis(
     })
 }
 
+/// Refuses empty grids, and grids too long to make cases of before they are allocated.
 fn grid_len(n: usize) -> Result<(), String> {
     if n == 0 {
         Err("a grid needs at least one point".into())
+    } else if n > MAX_CASES {
+        Err(format!("{n} points would make more than {MAX_CASES} cases"))
     } else {
         Ok(())
     }
@@ -746,6 +752,19 @@ mod tests {
             assert_eq!(e.line, Some(2), "{axis}: {e}");
             assert!(e.message.contains(want), "{axis}: {e}");
         }
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\n\
+             uniform = [0.5, 1.5]\nsamples = 1000000000000\n",
+        )
+        .unwrap_err();
+        assert_eq!(e.line, Some(2), "{e}");
+        assert!(e.message.contains("more than 1000000 cases"), "{e}");
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\n\
+             linspace = [0.5, 1.5, 1000000000000]\n",
+        )
+        .unwrap_err();
+        assert!(e.message.contains("more than 1000000 cases"), "{e}");
         let e = spec("base = \"missing.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n")
             .unwrap_err();
         assert_eq!(e.line, Some(1));
