@@ -232,12 +232,28 @@ impl SweepSpec {
         }
         let fmu_names = fmu_names(&base_doc);
         let channels = memory_channels(&base_doc);
-        let mut axes = Vec::new();
+        let mut axes: Vec<Axis> = Vec::new();
         let mut names = BTreeSet::new();
         for (i, a) in raw.axes.iter().enumerate() {
             let mut axis = build_axis(a.get_ref(), raw.seed, i, &fmu_names, &channels)
                 .map_err(|m| err(a.span(), format!("axis {}: {m}", i + 1)))?;
             axis.line = Some(line_of(text, a.span().start));
+            for (j, other) in axes.iter().enumerate() {
+                if let Some(what) = overlap(other, &axis) {
+                    return Err(err(
+                        a.span(),
+                        format!(
+                            "axis {} ({:?}) and axis {} ({:?}, line {}) both set {what}: \
+                             a case would take one value and report both",
+                            i + 1,
+                            axis.name,
+                            j + 1,
+                            other.name,
+                            other.line.unwrap_or(0)
+                        ),
+                    ));
+                }
+            }
             if !names.insert(axis.name.clone()) {
                 return Err(err(
                     a.span(),
@@ -321,6 +337,22 @@ impl SweepSpec {
                 if r.stride == 0 {
                     return Err(err(s.span(), "seeds.stride must not be 0".into()));
                 }
+                let seeded = (fmu.clone(), parameter.clone());
+                if let Some((j, axis)) = axes.iter().enumerate().find(
+                    |(_, a)| matches!(&a.target, Target::Parameters(ps) if ps.contains(&seeded)),
+                ) {
+                    return Err(err(
+                        s.span(),
+                        format!(
+                            "[seeds] parameter = {:?} is also set by axis {} ({:?}, line {}): \
+                             the seed would overwrite the axis's values",
+                            r.parameter,
+                            j + 1,
+                            axis.name,
+                            axis.line.unwrap_or(0)
+                        ),
+                    ));
+                }
                 Some(Seeds {
                     fmu,
                     parameter,
@@ -402,6 +434,46 @@ fn split_target(target: &str, fmus: &[String]) -> Result<(String, String), Strin
     Ok((fmu.to_string(), name.to_string()))
 }
 
+/// What an axis and a later one both set in a case's scenario, if anything: the later
+/// would silently replace the earlier's value while sweep.csv reports both. An `update`
+/// table replaces every setting of its channel that an earlier axis made; a later setting
+/// axis only adds to the table, unless one of the update values already holds that key.
+fn overlap(earlier: &Axis, later: &Axis) -> Option<String> {
+    match (&earlier.target, &later.target) {
+        (Target::Parameters(x), Target::Parameters(y)) => x
+            .iter()
+            .find(|p| y.contains(p))
+            .map(|(fmu, name)| format!("{fmu}.{name}")),
+        (
+            Target::Memory {
+                channel,
+                setting: first,
+            },
+            Target::Memory {
+                channel: c2,
+                setting: second,
+            },
+        ) if channel == c2 => {
+            let in_update_values = first == "update"
+                && earlier
+                    .values
+                    .iter()
+                    .any(|v| v.as_table().is_some_and(|t| t.contains_key(second)));
+            if first == second || in_update_values {
+                Some(format!("the {second} of memory channel {channel:?}"))
+            } else if second == "update" {
+                Some(format!(
+                    "the {first} of memory channel {channel:?} (setting = \"update\" replaces \
+                     the whole [memory.update] table)"
+                ))
+            } else {
+                None
+            }
+        }
+        _ => None,
+    }
+}
+
 /// Keys of the `[memory.update]` table an axis may set.
 const MEMORY_SETTINGS: [&str; 7] = [
     "update",
@@ -423,12 +495,18 @@ fn build_axis(
     let target = match (&a.memory, a.parameters.is_empty()) {
         (Some(_), false) => return Err("give either `parameters` or `memory`, not both".into()),
         (None, true) => return Err("give `parameters = [\"fmu.name\", ...]` or `memory`".into()),
-        (None, false) => Target::Parameters(
-            a.parameters
+        (None, false) => {
+            let ps: Vec<(String, String)> = a
+                .parameters
                 .iter()
                 .map(|p| split_target(p, fmus))
-                .collect::<Result<_, _>>()?,
-        ),
+                .collect::<Result<_, _>>()?;
+            // A scaled parameter listed twice would be scaled twice.
+            if let Some(k) = (1..ps.len()).find(|&k| ps[..k].contains(&ps[k])) {
+                return Err(format!("{:?} is listed twice", a.parameters[k]));
+            }
+            Target::Parameters(ps)
+        }
         (Some(ch), true) => {
             if !channels.iter().any(|c| c == ch) {
                 return Err(format!(
@@ -717,6 +795,70 @@ mod tests {
         )
         .unwrap();
         assert_eq!(s.axes[0].values, again.axes[0].values);
+    }
+
+    #[test]
+    fn two_keys_setting_one_variable_are_refused_naming_both() {
+        let mass = "[[axis]]\nname = \"mass\"\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n";
+        let e = spec(&format!(
+            "base = \"base.toml\"\n{mass}[[axis]]\nname = \"m2\"\n\
+             parameters = [\"plant.gravity\", \"plant.rod_mass\"]\nvalues = [2.0]\n"
+        ))
+        .unwrap_err();
+        assert_eq!(e.line, Some(6), "{e}");
+        assert!(
+            e.message
+                .contains("axis 2 (\"m2\") and axis 1 (\"mass\", line 2) both set plant.rod_mass"),
+            "{e}"
+        );
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\", \"plant.rod_mass\"]\n\
+             values = [1.0]\n",
+        )
+        .unwrap_err();
+        assert!(e.message.contains("listed twice"), "{e}");
+        let e = spec(
+            "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.noise_seed\"]\nvalues = [1, 2]\n\
+             [seeds]\nparameter = \"plant.noise_seed\"\n",
+        )
+        .unwrap_err();
+        assert_eq!(e.line, Some(5), "{e}");
+        assert!(
+            e.message
+                .contains("[seeds] parameter = \"plant.noise_seed\" is also set by axis 1"),
+            "{e}"
+        );
+        assert!(e.message.contains("line 2"), "{e}");
+        let memory = |setting: &str, values: &str| {
+            format!(
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"{setting}\"\nvalues = {values}\n"
+            )
+        };
+        let robust = "[{ filter = \"butterworth\", order = 2, cutoff = 8.0 }]";
+        for (first, second) in [
+            (memory("cutoff", "[1.0]"), memory("update", "[{}]")),
+            (memory("update", robust), memory("cutoff", "[1.0]")),
+            (memory("lead", "[1]"), memory("lead", "[2]")),
+        ] {
+            let e = spec(&format!("base = \"base.toml\"\n{first}{second}")).unwrap_err();
+            assert_eq!(e.line, Some(6), "{first}{second}: {e}");
+            assert!(e.message.contains("both set the"), "{e}");
+        }
+        // A setting the update values leave alone may follow them.
+        spec(&format!(
+            "base = \"base.toml\"\n{}{}",
+            memory("update", robust),
+            memory("lead", "[1]")
+        ))
+        .unwrap();
+        // Different settings of one channel, and one parameter's axis with the seeds of another,
+        // are fine.
+        spec(&format!(
+            "base = \"base.toml\"\n{}{}{mass}[seeds]\nparameter = \"plant.noise_seed\"\n",
+            memory("cutoff", "[1.0]"),
+            memory("lead", "[1]")
+        ))
+        .unwrap();
     }
 
     #[test]
