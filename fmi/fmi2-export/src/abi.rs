@@ -66,12 +66,19 @@ unsafe fn guard<M: Model>(
     let state = inst.glue.state;
     if !function.allowed_in(state) {
         let hint = function.illegal_call_hint();
+        let cause = match inst.glue.failed_in {
+            Some(f) if state == FmiState::Terminated => format!(
+                " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
+                f.name()
+            ),
+            _ => String::new(),
+        };
         inst.log(
             Status::Error,
             function,
-            &format!("illegal call sequence in state {state}{hint}"),
+            &format!("illegal call sequence in state {state}{cause}{hint}"),
         );
-        inst.escalate(Status::Error);
+        inst.escalate(Status::Error, function);
         return Status::Error.into();
     }
     let outcome = panic::catch_unwind(AssertUnwindSafe(|| body(&mut *inst)));
@@ -79,12 +86,12 @@ unsafe fn guard<M: Model>(
         Ok(Ok(status)) => status.into(),
         Ok(Err(failure)) => {
             inst.log(failure.status, function, &failure.message);
-            inst.escalate(failure.status);
+            inst.escalate(failure.status, function);
             failure.status.into()
         }
         Err(payload) => {
             // The model may be half-updated: nothing but fmi2FreeInstance may touch it.
-            inst.escalate(Status::Fatal);
+            inst.escalate(Status::Fatal, function);
             inst.log(
                 Status::Fatal,
                 function,

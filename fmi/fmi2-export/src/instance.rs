@@ -159,6 +159,10 @@ pub(crate) struct Glue {
     pub(crate) terminate_requested: bool,
     /// A variable was set since `initialize` last ran (only matters in InitializationMode).
     pub(crate) dirty: bool,
+    /// The function whose fmi2Error moved the instance to Terminated, so that later
+    /// illegal calls say why the instance is there (a master that never called
+    /// fmi2Terminate would otherwise read "in state Terminated" as a bug). Not serialized.
+    pub(crate) failed_in: Option<Function>,
 }
 
 impl Glue {
@@ -174,6 +178,7 @@ impl Glue {
             last_step_status: Status::Ok,
             terminate_requested: false,
             dirty: false,
+            failed_in: None,
         }
     }
 }
@@ -378,9 +383,12 @@ impl<M: Model> Instance<M> {
     /// moves the instance to Terminated (FMI 2.0 §2.1.3: the simulation cannot continue
     /// except by restoring an FMU state, resetting or freeing); fmi2Fatal to Fatal, which is
     /// never left.
-    pub(crate) fn escalate(&mut self, status: Status) {
+    pub(crate) fn escalate(&mut self, status: Status, function: Function) {
         match status {
             Status::Error if self.glue.state != FmiState::Fatal => {
+                if self.glue.state != FmiState::Terminated {
+                    self.glue.failed_in = Some(function);
+                }
                 self.glue.state = FmiState::Terminated;
             }
             Status::Fatal => self.glue.state = FmiState::Fatal,

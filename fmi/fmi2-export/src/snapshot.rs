@@ -280,6 +280,7 @@ fn decode_glue(state: u32, flags: u32, step_status: u32, reals: [f64; 5]) -> Res
         last_step_status,
         terminate_requested: has(FLAG_TERMINATE),
         dirty: has(FLAG_DIRTY),
+        failed_in: None,
     };
     let finite = [
         Some(start_time),

@@ -603,3 +603,45 @@ fn free_instance_releases_everything() {
     fmu.free();
     assert!(fmu.c.is_null());
 }
+
+#[test]
+fn calls_after_an_error_name_the_function_that_failed() {
+    // An illegal call in Instantiated escalates to Terminated; the next illegal call says
+    // which call put the instance there.
+    let fmu = Fmu::with_logging("after-error", true);
+    assert_eq!(fmu.do_step(0.0, 0.1), Status::Error);
+    assert_eq!(fmu.state(), Some(FmiState::Terminated));
+    fmu.log.clear();
+    assert_eq!(fmu.setup(0.0, None), Status::Error);
+    assert!(
+        fmu.log.contains(
+            "fmi2SetupExperiment: illegal call sequence in state Terminated (entered when \
+             fmi2DoStep returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)"
+        ),
+        "{:?}",
+        fmu.log.messages()
+    );
+    // fmi2Reset forgets the cause with the state.
+    assert_eq!(fmu.reset(), Status::Ok);
+    assert_eq!(fmu.setup(0.0, None), Status::Ok);
+
+    // A master that terminated on purpose is not told about an error.
+    let fmu = Fmu::initialized("terminated");
+    assert_eq!(fmu.terminate(), Status::Ok);
+    fmu.log.clear();
+    assert_eq!(fmu.do_step(0.0, 0.1), Status::Error);
+    assert!(
+        fmu.log
+            .contains("fmi2DoStep: illegal call sequence in state Terminated"),
+        "{:?}",
+        fmu.log.messages()
+    );
+    assert!(
+        !fmu.log
+            .messages()
+            .iter()
+            .any(|m| m.contains("entered when")),
+        "{:?}",
+        fmu.log.messages()
+    );
+}
