@@ -490,6 +490,17 @@ impl Scenario {
                 ),
             );
         }
+        // A trial of zero steps would run nothing and report an all-zero summary.
+        if steps_f < 1.0 - 1e-6 {
+            return cx.err(
+                raw.step_size.span(),
+                format!(
+                    "step_size = {h:?} s is longer than the trial (stop_time − start_time = {} s); \
+                     a trial must hold at least one step",
+                    stop - raw.start_time
+                ),
+            );
+        }
         let steps = steps_f.round() as usize;
         if (steps_f - steps as f64).abs() > 1e-6 * steps_f.max(1.0) {
             return cx.err(
@@ -1237,6 +1248,21 @@ mod tests {
         Scenario::parse(&text, Path::new("s.toml"), |_| {
             ModelDescription::parse(MD).map_err(|e| e.to_string())
         })
+    }
+
+    #[test]
+    fn a_step_longer_than_the_trial_is_refused_at_its_line() {
+        for h in ["1e6", "1e300", "1.5"] {
+            let text = format!(
+                "stop_time = 1.0\nstep_size = {h}\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n"
+            );
+            let err = Scenario::parse(&text, Path::new("s.toml"), |_| {
+                ModelDescription::parse(MD).map_err(|e| e.to_string())
+            })
+            .unwrap_err();
+            assert_eq!(err.line, Some(2), "{err}");
+            assert!(err.to_string().contains("at least one step"), "{err}");
+        }
     }
 
     #[test]

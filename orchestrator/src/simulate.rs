@@ -275,6 +275,12 @@ impl Grid {
         } else {
             (ratio.floor() as usize, true)
         };
+        // A step beyond the span would leave only the initial row, or one shortened step.
+        ensure!(
+            full_steps >= 1,
+            "step size {step} s is longer than the span from {start} s to {stop} s; \
+             it must hold at least one step: use a smaller --step-size"
+        );
         ensure!(
             !partial || can_vary_step,
             "stop − start = {} s is not a whole number of steps of {step} s, and the FMU cannot \
@@ -759,6 +765,10 @@ mod tests {
         }
         let err = Grid::new(0.0, 1e3, 1e-9, true).unwrap_err().to_string();
         assert!(err.contains("--step-size"), "{err}");
+        for step in [1e6, 1.5] {
+            let err = Grid::new(0.0, 1.0, step, true).unwrap_err().to_string();
+            assert!(err.contains("at least one step"), "{err}");
+        }
     }
 
     #[test]
