@@ -121,7 +121,9 @@ pub struct CampaignOptions {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrialSummary {
     pub trial: usize,
-    pub legs: LegErrorMetrics,
+    /// `None` when the scenario has no `[metrics]`: nothing was measured, which summary.csv
+    /// writes as empty cells rather than zeros that read as a perfect trial.
+    pub legs: Option<LegErrorMetrics>,
     pub path: Option<PathErrorStats>,
 }
 
@@ -141,19 +143,20 @@ impl TrialSummary {
     /// One `summary.csv` row (values in m; shortest round-trip formatting).
     pub fn to_row(&self) -> Vec<String> {
         let mut r = vec![self.trial.to_string()];
-        let picks: [fn(&ckcm::metrics::ErrorStats) -> f64; 3] =
-            [|s| s.max, |s| s.rms, |s| s.lambda];
-        for pick in picks {
-            r.extend(self.legs.per_leg.iter().map(|s| pick(s).to_string()));
+        match &self.legs {
+            Some(legs) => {
+                let picks: [fn(&ckcm::metrics::ErrorStats) -> f64; 3] =
+                    [|s| s.max, |s| s.rms, |s| s.lambda];
+                for pick in picks {
+                    r.extend(legs.per_leg.iter().map(|s| pick(s).to_string()));
+                }
+                r.extend(
+                    [legs.overall.max, legs.overall.rms, legs.overall.lambda]
+                        .map(|x| x.to_string()),
+                );
+            }
+            None => r.extend(std::iter::repeat_n(String::new(), 21)),
         }
-        r.extend(
-            [
-                self.legs.overall.max,
-                self.legs.overall.rms,
-                self.legs.overall.lambda,
-            ]
-            .map(|x| x.to_string()),
-        );
         match self.path {
             Some(p) => r.extend([p.max.to_string(), p.rms.to_string()]),
             None => r.extend([String::new(), String::new()]),
@@ -161,18 +164,24 @@ impl TrialSummary {
         r
     }
 
-    /// Parses a row written by [`TrialSummary::to_row`].
+    /// Parses a row written by [`TrialSummary::to_row`] (by this version or an earlier one).
     pub fn from_row(row: &[String]) -> Option<Self> {
         let num = |i: usize| row.get(i)?.parse::<f64>().ok();
-        let mut legs = LegErrorMetrics::default();
-        for leg in 0..6 {
-            legs.per_leg[leg].max = num(1 + leg)?;
-            legs.per_leg[leg].rms = num(7 + leg)?;
-            legs.per_leg[leg].lambda = num(13 + leg)?;
-        }
-        legs.overall.max = num(19)?;
-        legs.overall.rms = num(20)?;
-        legs.overall.lambda = num(21)?;
+        let unmeasured = (1..=21).all(|i| row.get(i).is_some_and(String::is_empty));
+        let legs = if unmeasured {
+            None
+        } else {
+            let mut legs = LegErrorMetrics::default();
+            for leg in 0..6 {
+                legs.per_leg[leg].max = num(1 + leg)?;
+                legs.per_leg[leg].rms = num(7 + leg)?;
+                legs.per_leg[leg].lambda = num(13 + leg)?;
+            }
+            legs.overall.max = num(19)?;
+            legs.overall.rms = num(20)?;
+            legs.overall.lambda = num(21)?;
+            Some(legs)
+        };
         let path = match (num(22), num(23)) {
             (Some(max), Some(rms)) => Some(PathErrorStats { max, rms }),
             _ => None,
@@ -185,18 +194,19 @@ impl TrialSummary {
     }
 
     fn compute(trial: usize, scenario: &Scenario, s: &TrialSignals) -> Self {
-        let rho = scenario
-            .metrics
-            .as_ref()
-            .map_or(crate::scenario::DEFAULT_RHO, |m| m.rho);
+        let Some(metrics) = &scenario.metrics else {
+            return Self {
+                trial,
+                legs: None,
+                path: None,
+            };
+        };
         // The λ-norm weights time since the start of the trial.
         let rel: Vec<f64> = s.time.iter().map(|t| t - scenario.start_time).collect();
         let e: [&[f64]; 6] = std::array::from_fn(|i| s.error[i].as_slice());
-        let legs = leg_error_metrics(&rel, &e, rho);
-        let path = scenario
-            .metrics
-            .as_ref()
-            .and_then(|m| m.trajectory)
+        let legs = Some(leg_error_metrics(&rel, &e, metrics.rho));
+        let path = metrics
+            .trajectory
             .filter(|_| !s.position.is_empty())
             .map(|traj| {
                 let desired: Vec<[f64; 3]> = rel
@@ -598,7 +608,20 @@ pub fn run_campaign(
                 p.completed
             )));
         }
-        summaries = rows.into_iter().take(p.completed).collect();
+        // A campaign begun before unmeasured trials were written as empty cells has zeros
+        // there; rewritten as empty, its summary.csv reads as one of this version.
+        summaries = rows
+            .into_iter()
+            .take(p.completed)
+            .map(|row| match scenario.metrics {
+                Some(_) => row,
+                None => TrialSummary {
+                    legs: None,
+                    path: None,
+                    ..row
+                },
+            })
+            .collect();
         first = p.completed;
         if first > 0 {
             let lens: Vec<usize> = scenario
@@ -910,7 +933,8 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
     fn metrics_are_timed_from_the_trial_start_and_include_the_path() {
         let at_zero = TrialSummary::compute(3, &scenario(0.0), &signals(0.0));
         let later = TrialSummary::compute(3, &scenario(100.0), &signals(100.0));
-        for (a, b) in at_zero.legs.per_leg.iter().zip(&later.legs.per_leg) {
+        let (legs0, legs1) = (at_zero.legs.unwrap(), later.legs.unwrap());
+        for (a, b) in legs0.per_leg.iter().zip(&legs1.per_leg) {
             assert!(
                 (a.lambda - b.lambda).abs() <= 1e-12 * a.lambda,
                 "{a:?} {b:?}"
@@ -918,7 +942,7 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
             assert_eq!(a.max, b.max);
         }
         // With ρ = 5 /s the weight matters: the λ-norm is below the maximum.
-        assert!(at_zero.legs.overall.lambda < 0.9 * at_zero.legs.overall.max);
+        assert!(legs0.overall.lambda < 0.9 * legs0.overall.max);
         let path = at_zero.path.expect("positions were recorded");
         assert!((path.max - 1e-3).abs() < 1e-12 && (path.rms - 1e-3).abs() < 1e-12);
         assert_eq!(at_zero.trial, 3);
@@ -933,6 +957,29 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         assert_eq!(TrialSummary::from_row(&row), Some(s));
         let no_path = TrialSummary { path: None, ..s };
         assert_eq!(TrialSummary::from_row(&no_path.to_row()), Some(no_path));
+    }
+
+    /// Without `[metrics]` nothing is measured: the cells are empty, not zeros, and read back
+    /// as unmeasured; a row of an earlier version (zeros) still reads.
+    #[test]
+    fn unmeasured_trials_have_empty_cells() {
+        let mut no_metrics = scenario(0.0);
+        no_metrics.metrics = None;
+        let s = TrialSummary::compute(2, &no_metrics, &signals(0.0));
+        assert_eq!(s.legs, None);
+        let row = s.to_row();
+        assert_eq!(row.len(), summary_header().len());
+        assert_eq!(row[0], "2");
+        assert!(row[1..].iter().all(String::is_empty), "{row:?}");
+        assert_eq!(TrialSummary::from_row(&row), Some(s));
+        let mut old = vec!["2".to_string()];
+        old.extend(std::iter::repeat_n("0".to_string(), 21));
+        old.extend([String::new(), String::new()]);
+        let legs = TrialSummary::from_row(&old).unwrap().legs.unwrap();
+        assert_eq!(legs.overall.max, 0.0);
+        // Some cells empty and others not is no row of any version.
+        old[3].clear();
+        assert_eq!(TrialSummary::from_row(&old), None);
     }
 
     /// The published FNV-1a 64-bit test vectors (offset basis 0xcbf29ce484222325).

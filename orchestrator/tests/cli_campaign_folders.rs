@@ -317,3 +317,37 @@ fn kill_at_every_file_operation_then_resume_is_byte_identical() {
         assert!(points >= 15, "only {points} kill points with --jobs {jobs}");
     }
 }
+
+/// Without `[metrics]` nothing is measured: the console says so and summary.csv leaves the
+/// cells empty, not zeros that read as a perfect trial. A campaign of an earlier version
+/// (zeros in those cells) resumes into the same files as a new one.
+#[test]
+fn unmeasured_trials_are_reported_as_such() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    let o = run(&s, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("trial   0: error not measured"), "{err}");
+    assert!(!err.contains("max |e|"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let rows: Vec<&str> = summary.lines().skip(1).collect();
+    assert_eq!(rows.len(), 3, "{summary}");
+    for (k, row) in rows.iter().enumerate() {
+        assert_eq!(*row, format!("{k}{}", ",".repeat(23)), "{summary}");
+    }
+    // An earlier version's interrupted campaign: one trial, zeros in the metric cells.
+    let old = tmp.path().join("old");
+    let o = run(&s, &old, &["--stop-after", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let header = summary.lines().next().unwrap();
+    let zeros = format!("{header}\n0{}\n", ",0".repeat(21) + ",,");
+    std::fs::write(old.join("summary.csv"), zeros).unwrap();
+    let o = run(&s, &old, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(old.join("summary.csv")).unwrap(),
+        summary
+    );
+}

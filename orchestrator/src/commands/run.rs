@@ -36,12 +36,18 @@ pub fn run(args: RunArgs) -> Result<()> {
     };
     let summaries = run_campaign(&scenario, &text, fmus, &opts)?;
     for s in &summaries {
-        eprintln!(
-            "trial {:3}: max |e| = {:.6} mm, RMS e = {:.6} mm",
-            s.trial,
-            s.legs.overall.max * 1e3,
-            s.legs.overall.rms * 1e3
-        );
+        match s.legs {
+            Some(legs) => eprintln!(
+                "trial {:3}: max |e| = {:.6} mm, RMS e = {:.6} mm",
+                s.trial,
+                legs.overall.max * 1e3,
+                legs.overall.rms * 1e3
+            ),
+            None => eprintln!(
+                "trial {:3}: error not measured (the scenario has no [metrics])",
+                s.trial
+            ),
+        }
     }
     eprintln!("results in {}", out_dir.display());
     Ok(())

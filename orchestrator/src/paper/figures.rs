@@ -272,9 +272,7 @@ fn leg_error_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
 }
 
 fn summaries_equal(a: &TrialSummary, b: &TrialSummary) -> bool {
-    a.legs.overall.max == b.legs.overall.max
-        && a.legs.overall.rms == b.legs.overall.rms
-        && a.legs.overall.lambda == b.legs.overall.lambda
+    a.legs.map(|l| l.overall) == b.legs.map(|l| l.overall)
 }
 
 fn xyz(rec: &Recording) -> Vec<[f64; 3]> {
@@ -644,7 +642,7 @@ fn convergence_figures(fig: &Path, data: &[CaseData]) -> Result<(), PaperError> 
             d.result
                 .summaries
                 .iter()
-                .map(|s| s.legs.overall.max)
+                .map(|s| s.legs.map_or(f64::NAN, |l| l.overall.max))
                 .collect()
         }),
         (
@@ -663,7 +661,7 @@ fn convergence_figures(fig: &Path, data: &[CaseData]) -> Result<(), PaperError> 
             d.result
                 .summaries
                 .iter()
-                .map(|s| s.legs.overall.rms)
+                .map(|s| s.legs.map_or(f64::NAN, |l| l.overall.rms))
                 .collect()
         }),
     ];

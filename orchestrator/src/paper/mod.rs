@@ -259,9 +259,15 @@ fn write_convergence_table(opts: &PaperOptions, results: &[CaseResult]) -> Resul
                     traj_slug(r.trajectory).to_string(),
                     r.scheme.slug().to_string(),
                     s.trial.to_string(),
-                    s.legs.overall.max.to_string(),
-                    s.legs.overall.rms.to_string(),
-                    s.legs.overall.lambda.to_string(),
+                    s.legs
+                        .map(|l| l.overall.max.to_string())
+                        .unwrap_or_default(),
+                    s.legs
+                        .map(|l| l.overall.rms.to_string())
+                        .unwrap_or_default(),
+                    s.legs
+                        .map(|l| l.overall.lambda.to_string())
+                        .unwrap_or_default(),
                     s.path.map(|p| p.max.to_string()).unwrap_or_default(),
                     s.path.map(|p| p.rms.to_string()).unwrap_or_default(),
                 ]

@@ -192,8 +192,12 @@ pub(super) fn write_table(out: &Path, results: &[Vec<TrialSummary>]) -> Result<(
                     traj_slug(c.trajectory).to_owned(),
                     c.slug.to_owned(),
                     s.trial.to_string(),
-                    s.legs.overall.max.to_string(),
-                    s.legs.overall.rms.to_string(),
+                    s.legs
+                        .map(|l| l.overall.max.to_string())
+                        .unwrap_or_default(),
+                    s.legs
+                        .map(|l| l.overall.rms.to_string())
+                        .unwrap_or_default(),
                 ]
             })
         })

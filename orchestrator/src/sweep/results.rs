@@ -96,8 +96,19 @@ pub fn read_cases(spec: &SweepSpec, out: &Path) -> Result<Vec<CaseResult>, Sweep
             } else {
                 Vec::new()
             };
-            let max: Vec<f64> = rows.iter().map(|r| r.legs.overall.max).collect();
-            let rms: Vec<f64> = rows.iter().map(|r| r.legs.overall.rms).collect();
+            let legs = rows
+                .iter()
+                .map(|r| {
+                    r.legs.map(|l| l.overall).ok_or_else(|| {
+                        bad(format!(
+                            "summary.csv: trial {} has no leg errors (no [metrics])",
+                            r.trial
+                        ))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let max: Vec<f64> = legs.iter().map(|l| l.max).collect();
+            let rms: Vec<f64> = legs.iter().map(|l| l.rms).collect();
             let failed = outcome.status != "completed";
             Ok(CaseResult {
                 case: i,

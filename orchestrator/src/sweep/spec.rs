@@ -211,6 +211,17 @@ impl SweepSpec {
                 format!("base scenario {}: {}", base.display(), e.message()),
             )
         })?;
+        // The cases are compared by their leg errors, which only [metrics] measures.
+        if !base_doc.contains_key("metrics") {
+            return Err(err(
+                raw.base.span(),
+                format!(
+                    "the base scenario {} has no [metrics]: a sweep compares its cases by \
+                     their leg errors",
+                    base.display()
+                ),
+            ));
+        }
         if let Some(t) = &raw.trials
             && *t.get_ref() == 0
         {
@@ -734,9 +745,11 @@ mod tests {
             dir.path().join("base.toml"),
             "step_size = 0.001\nstop_time = 1.0\n[[fmu]]\nname = \"plant\"\npath = \"p.fmu\"\n\
              [[fmu]]\nname = \"controller\"\npath = \"c.fmu\"\n\
-             [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n",
+             [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n\
+             [metrics]\nerror = \"controller.error\"\n",
         )
         .unwrap();
+        std::fs::write(dir.path().join("unmeasured.toml"), "step_size = 0.001\n").unwrap();
         let file = dir.path().join("sweep.toml");
         SweepSpec::parse(sweep, &file)
     }
@@ -907,6 +920,12 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.message.contains("more than 1000000 cases"), "{e}");
+        let e = spec(
+            "base = \"unmeasured.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n",
+        )
+        .unwrap_err();
+        assert_eq!(e.line, Some(1));
+        assert!(e.message.contains("has no [metrics]"), "{e}");
         let e = spec("base = \"missing.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n")
             .unwrap_err();
         assert_eq!(e.line, Some(1));
