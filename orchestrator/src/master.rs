@@ -43,6 +43,17 @@ pub enum MasterError {
         terminated: bool,
         source: Box<ImportError>,
     },
+    #[error(
+        "trial {trial}, t = {time} s: FMU {fmu:?} returned {variable} = {value} from \
+         fmi2GetReal with status fmi2OK; a value that is not finite stops the trial"
+    )]
+    NotFinite {
+        trial: usize,
+        time: f64,
+        fmu: String,
+        variable: String,
+        value: f64,
+    },
     #[error("memory channel {channel:?}: {source}")]
     Update {
         channel: String,
@@ -115,6 +126,8 @@ impl MemoryLink for Unlinked {
 struct Wiring {
     /// Outputs read after every step (and after initialization) into `bus[bus_range]`.
     out_vrs: Vec<u32>,
+    /// Their names, for the error when one is not finite.
+    out_names: Vec<String>,
     bus_range: Range<usize>,
     /// Real inputs set before every step.
     in_vrs: Vec<u32>,
@@ -125,6 +138,30 @@ struct Wiring {
     record_before: Vec<Run>,
     /// Bus slots copied into recording columns after the step (values held over the step).
     record_after: Vec<Run>,
+}
+
+impl Wiring {
+    /// A NaN or infinite output returned with fmi2OK would flow silently into the
+    /// recordings, the memory and the summary; it ends the trial as a failed call does.
+    fn check_finite(
+        &self,
+        bus: &[f64],
+        trial: usize,
+        time: f64,
+        fmu: &str,
+    ) -> Result<(), MasterError> {
+        let outputs = &bus[self.bus_range.clone()];
+        match outputs.iter().position(|x| !x.is_finite()) {
+            None => Ok(()),
+            Some(i) => Err(MasterError::NotFinite {
+                trial,
+                time,
+                fmu: fmu.to_owned(),
+                variable: self.out_names[i].clone(),
+                value: outputs[i],
+            }),
+        }
+    }
 }
 
 /// `len` consecutive bus slots from `slot` copied to a row (the recording columns, or a
@@ -273,11 +310,13 @@ impl<'s> Master<'s> {
         }
         // Every output anyone needs gets a bus slot, grouped per FMU.
         let n = scenario.fmus.len();
-        let mut needed: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut needed: Vec<(Vec<u32>, Vec<String>)> = vec![(Vec::new(), Vec::new()); n];
         let mut need = |p: &Port| {
-            for &vr in &p.value_references {
-                if !needed[p.fmu].contains(&vr) {
-                    needed[p.fmu].push(vr);
+            let (vrs, names) = &mut needed[p.fmu];
+            for (&vr, name) in p.value_references.iter().zip(&p.names) {
+                if !vrs.contains(&vr) {
+                    vrs.push(vr);
+                    names.push(name.clone());
                 }
             }
         };
@@ -301,11 +340,12 @@ impl<'s> Master<'s> {
         }
         let mut wiring = Vec::with_capacity(n);
         let mut next = 0;
-        for vrs in needed {
+        for (vrs, names) in needed {
             let range = next..next + vrs.len();
             next = range.end;
             wiring.push(Wiring {
                 out_vrs: vrs,
+                out_names: names,
                 bus_range: range,
                 in_vrs: Vec::new(),
                 in_runs: Vec::new(),
@@ -492,6 +532,7 @@ impl<'s> Master<'s> {
                     what: "fmi2GetReal",
                     source: Box::new(source),
                 })?;
+            w.check_finite(&self.bus, trial, sc.start_time, &spec.name)?;
         }
         self.initialized_once = true;
         Ok(())
@@ -616,6 +657,7 @@ impl<'s> Master<'s> {
                         what: "fmi2GetReal",
                         source: Box::new(source),
                     })?;
+                w.check_finite(&self.bus, trial, sc.time(n + 1), &sc.fmus[k].name)?;
                 Run::copy(&w.record_after, &self.bus, &mut self.row);
                 for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
                     let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];

@@ -45,6 +45,17 @@ pub enum SimulateError {
         /// The failed call, with the FMU's messages.
         error: ImportError,
     },
+    /// An output was NaN or infinite although the call returned fmi2OK.
+    #[error(
+        "FMU {instance:?} returned {variable} = {value} at t = {time} s from fmi2GetReal with \
+         status fmi2OK; a value that is not finite stops the simulation"
+    )]
+    NotFinite {
+        instance: String,
+        variable: String,
+        time: f64,
+        value: f64,
+    },
 }
 
 impl From<ImportError> for SimulateError {
@@ -565,6 +576,20 @@ impl Recorder {
             .collect()
     }
 
+    /// Refuses a Real output in `row` that is NaN or infinite: it would go silently into
+    /// the result.
+    fn check_finite(&self, row: &[f64], instance: &str, time: f64) -> Result<()> {
+        match self.reals.columns.iter().find(|&&c| !row[c].is_finite()) {
+            None => Ok(()),
+            Some(&c) => Err(SimulateError::NotFinite {
+                instance: instance.to_owned(),
+                variable: self.names[c].clone(),
+                time,
+                value: row[c],
+            }),
+        }
+    }
+
     /// Reads every recorded variable into `row` (Booleans as 0/1; Strings into their own
     /// columns, leaving NaN in `row`).
     fn sample(&mut self, inst: &mut Instance, row: &mut [f64]) -> Result<(), ImportError> {
@@ -662,6 +687,8 @@ fn run_plan(
     plan.recorder
         .sample(&mut inst, &mut row)
         .during(|| format!("reading the outputs at t = {} s", grid.start))?;
+    plan.recorder
+        .check_finite(&row, &md.model_name, grid.start)?;
     recording.push_row(grid.start, &row);
 
     for n in 0..grid.steps() {
@@ -715,6 +742,7 @@ fn run_plan(
         plan.recorder
             .sample(&mut inst, &mut row)
             .during(|| format!("reading the outputs at t = {t_next} s"))?;
+        plan.recorder.check_finite(&row, &md.model_name, t_next)?;
         recording.push_row(t_next, &row);
     }
     let status = inst.terminate()?;

@@ -101,3 +101,52 @@ fn error_at_the_end_stop_is_reported_as_a_failed_call() {
     assert!(err.contains("fmi2DoStep of FMU \"osc\" failed"), "{err}");
     assert!(!err.contains("discarded"), "{err}");
 }
+
+/// An output that is NaN or infinite with fmi2OK (here: a stiff spring that one explicit
+/// substep blows up in trial 1) stops the campaign like a failed call: the message names the
+/// trial, the time, the FMU and the variable, the exit is non-zero, and trial 0 is kept.
+#[test]
+fn a_non_finite_output_stops_the_run_and_keeps_the_completed_trials() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(tmp.path());
+    let scenario = tmp.path().join("stiff.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            r#"step_size = 0.0078125
+stop_time = 0.5
+trials = 3
+[[fmu]]
+name = "osc"
+path = "{}"
+[fmu.parameters]
+mass = 1e-9
+stiffness = {{ base = 0.0, per_trial = 1e12 }}
+x_limit = 1e308
+x0 = 1.0
+substeps = 1
+[record]
+variables = ["osc.x", "osc.v"]
+"#,
+            fmu.display()
+        ),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let o = orchestrator()
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("trial 1, t = "), "{err}");
+    assert!(err.contains("FMU \"osc\" returned osc.x = "), "{err}");
+    assert!(err.contains("not finite"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 2, "trial 0 only: {summary}");
+    assert!(out.join("trials/trial_000.csv").exists());
+    assert!(!out.join("trials/trial_001.csv").exists());
+}

@@ -376,3 +376,26 @@ fn start_value_and_record_errors_are_specific() {
         assert!(output.stdout.is_empty(), "{args:?}: nothing on stdout");
     }
 }
+
+/// An output that is NaN or infinite with fmi2OK is an error naming the instance, the
+/// variable and the time, and nothing is written.
+#[test]
+fn a_non_finite_output_is_an_error_naming_variable_and_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(dir.path());
+    let out = dir.path().join("out.csv");
+    let o = orchestrator()
+        .arg("simulate")
+        .arg(&fmu)
+        .args(["--set", "mass=1e-9", "--set", "stiffness=1e12", "--set", "x0=1"])
+        .args(["--set", "x_limit=1e308", "--set", "substeps=1", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("returned x = "), "{err}");
+    assert!(err.contains(" at t = "), "{err}");
+    assert!(err.contains("not finite"), "{err}");
+    assert!(!out.exists());
+}
