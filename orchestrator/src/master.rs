@@ -276,6 +276,8 @@ pub struct Master<'s> {
     error_difference: bool,
     has_pose: bool,
     initialized_once: bool,
+    /// Whether the FMUs' log messages are forwarded to stderr as they come (`--fmu-logging`).
+    logging: bool,
 }
 
 impl<'s> Master<'s> {
@@ -291,7 +293,10 @@ impl<'s> Master<'s> {
             let mut inst = fmu
                 .instantiate(&spec.name, logging)
                 .map_err(instantiate_err)?;
-            if !logging {
+            if logging {
+                // Every category, as `simulate --fmu-logging` asks.
+                inst.set_debug_logging(true, &[]).map_err(instantiate_err)?;
+            } else {
                 // Without debug logging, still hear why a call fails: enable the status
                 // categories the FMU declares (they log only when something goes wrong).
                 let status: Vec<&str> = fmu
@@ -435,7 +440,7 @@ impl<'s> Master<'s> {
         for w in &mut wiring {
             w.in_buf = vec![0.0; w.in_vrs.len()];
         }
-        Ok(Self {
+        let master = Self {
             scenario,
             instances,
             _fmus: fmus,
@@ -449,7 +454,10 @@ impl<'s> Master<'s> {
                 .is_some_and(|m| matches!(m.error, crate::scenario::LegError::Difference { .. })),
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
-        })
+            logging,
+        };
+        master.forward_log();
+        Ok(master)
     }
 
     /// Names of the outputs that feed the memory channels, channel by channel.
@@ -535,7 +543,21 @@ impl<'s> Master<'s> {
             w.check_finite(&self.bus, trial, sc.start_time, &spec.name)?;
         }
         self.initialized_once = true;
+        self.forward_log();
         Ok(())
+    }
+
+    /// With `--fmu-logging`, prints what each FMU logged since the last call, prefixed by its
+    /// instance name, as `simulate` does. Without it nothing is printed here: a failed call
+    /// carries its FMU's messages in its error.
+    fn forward_log(&self) {
+        if self.logging {
+            for inst in &self.instances {
+                for record in inst.take_log() {
+                    eprintln!("{}: {record}", inst.name());
+                }
+            }
+        }
     }
 
     /// Runs trial `trial` with the current read buffers, filling the write buffers,
@@ -697,6 +719,7 @@ impl<'s> Master<'s> {
                     );
                 }
             }
+            self.forward_log();
             on_step(n);
         }
         for ch in &mut self.channels {

@@ -356,3 +356,34 @@ fn memory_update_axes_and_case_seeds_reach_each_case_scenario() {
         "{csv}"
     );
 }
+
+/// `--fmu-logging` forwards the FMUs' messages, named by instance, as `simulate` does.
+#[test]
+fn fmu_logging_forwards_the_fmus_messages() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 1);
+    let o = orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(tmp.path().join("out"))
+        .args(["--jobs", "1", "--fmu-logging"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    for fmu in ["controller", "plant"] {
+        assert!(err.contains(&format!("{fmu}: [fmi2OK] ")), "{err}");
+    }
+    let o = orchestrator()
+        .arg("run")
+        .arg(tmp.path().join("base.toml"))
+        .arg("--out")
+        .arg(tmp.path().join("run"))
+        .args(["--trials", "1", "--fmu-logging"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("plant: [fmi2OK] "), "{err}");
+}
