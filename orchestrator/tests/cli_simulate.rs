@@ -387,7 +387,14 @@ fn a_non_finite_output_is_an_error_naming_variable_and_time() {
     let o = orchestrator()
         .arg("simulate")
         .arg(&fmu)
-        .args(["--set", "mass=1e-9", "--set", "stiffness=1e12", "--set", "x0=1"])
+        .args([
+            "--set",
+            "mass=1e-9",
+            "--set",
+            "stiffness=1e12",
+            "--set",
+            "x0=1",
+        ])
         .args(["--set", "x_limit=1e308", "--set", "substeps=1", "-o"])
         .arg(&out)
         .output()
