@@ -2,7 +2,7 @@
 //! after each trial so an interrupted campaign resumes with identical results.
 //!
 //! Output directory layout:
-//! - `scenario.toml`: the scenario as run;
+//! - `scenario.toml`: the scenario as run (absolute FMU paths, the trial count run);
 //! - `trials/trial_NNN.csv`: recorded variables of each recorded trial;
 //! - `memory/after_trial_NNN.f64`: the iteration memory the last completed trial NNN produced
 //!   (read by trial NNN+1; exact binary with a format version and a checksum; older ones are
@@ -38,7 +38,7 @@ use crate::output::{
     CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, write_atomic,
     write_recording, write_table_csv,
 };
-use crate::scenario::{RecordFormat, Scenario, ScenarioError};
+use crate::scenario::{RecordFormat, Scenario, ScenarioError, as_run_text};
 
 /// A campaign failure.
 #[derive(Debug, thiserror::Error)]
@@ -229,16 +229,58 @@ pub(crate) fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
     })
 }
 
-fn fingerprint(scenario: &Scenario, text: &str) -> Result<String, CampaignError> {
-    let mut h = fnv1a(0xcbf2_9ce4_8422_2325, text.as_bytes());
+/// A campaign's identity: its scenario text with the FMU paths and the trial count left out
+/// ([`as_run_text`] with placeholders) and the bytes of its FMUs, so the original scenario
+/// file, the saved `scenario.toml` and any `--trials` name the same campaign. Also the
+/// fingerprint earlier versions wrote (the text as given, then the FMUs), so their campaigns
+/// still resume.
+struct Fingerprints {
+    current: String,
+    earlier: String,
+}
+
+fn fingerprint(scenario: &Scenario, text: &str) -> Result<Fingerprints, CampaignError> {
+    let placeholders = vec![""; scenario.fmus.len()];
+    let identity = as_run_text(text, &scenario.source, &placeholders, 0)?;
+    let basis = 0xcbf2_9ce4_8422_2325;
+    let (mut current, mut earlier) = (
+        fnv1a(basis, identity.as_bytes()),
+        fnv1a(basis, text.as_bytes()),
+    );
     for f in &scenario.fmus {
         let bytes = fs::read(&f.path).map_err(|e| CampaignError::Resume {
             dir: f.path.clone(),
             message: format!("cannot read FMU: {e}"),
         })?;
-        h = fnv1a(h, &bytes);
+        current = fnv1a(current, &bytes);
+        earlier = fnv1a(earlier, &bytes);
     }
-    Ok(format!("{h:016x}"))
+    Ok(Fingerprints {
+        current: format!("{current:016x}"),
+        earlier: format!("{earlier:016x}"),
+    })
+}
+
+/// The scenario as run, for `scenario.toml`: absolute FMU paths (the text's were relative
+/// to the original file) and the trial count actually run.
+fn as_run(scenario: &Scenario, text: &str) -> Result<String, CampaignError> {
+    let paths: Vec<String> = scenario
+        .fmus
+        .iter()
+        .map(|f| {
+            std::path::absolute(&f.path)
+                .unwrap_or_else(|_| f.path.clone())
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    let paths: Vec<&str> = paths.iter().map(String::as_str).collect();
+    Ok(as_run_text(
+        text,
+        &scenario.source,
+        &paths,
+        scenario.trials,
+    )?)
 }
 
 #[derive(Debug, serde::Deserialize)]
@@ -574,7 +616,9 @@ pub fn run_campaign(
 ) -> Result<Vec<TrialSummary>, CampaignError> {
     check_memory(scenario, opts.memory_limit_mib)?;
     let dir = &opts.out_dir;
-    let fp = fingerprint(scenario, scenario_text)?;
+    let fps = fingerprint(scenario, scenario_text)?;
+    let fp = &fps.current;
+    let saved_text = as_run(scenario, scenario_text)?;
     let _lock = DirLock::acquire(dir)?;
     let crash = CrashPoint {
         at: opts.crash_at,
@@ -595,7 +639,7 @@ pub fn run_campaign(
             .map_err(|e| resume_err(format!("cannot read progress.toml: {e}")))?;
         let p: Progress =
             toml::from_str(&text).map_err(|e| resume_err(format!("progress.toml: {e}")))?;
-        if p.fingerprint != fp {
+        if p.fingerprint != fps.current && p.fingerprint != fps.earlier {
             return Err(resume_err(
                 "it holds a campaign of a different scenario or different FMUs".into(),
             ));
@@ -779,7 +823,7 @@ pub fn run_campaign(
             }
             if k == first {
                 write_atomic(&dir.join("scenario.toml"), |w| {
-                    w.write_all(scenario_text.as_bytes())
+                    w.write_all(saved_text.as_bytes())
                 })?;
                 crash.tick();
             }

@@ -1219,6 +1219,77 @@ fn per_trial_values(
     }
 }
 
+/// Where a scenario text says how many trials and where each FMU is, for [`as_run_text`].
+#[derive(Debug, Deserialize)]
+struct RawPlaces {
+    #[serde(default)]
+    trials: Option<Spanned<toml::Value>>,
+    #[serde(default, rename = "fmu")]
+    fmus: Vec<RawPlace>,
+}
+
+#[derive(Debug, Deserialize)]
+struct RawPlace {
+    path: Spanned<toml::Value>,
+}
+
+/// Scenario `text` (from `file`) with every `[[fmu]]` `path` replaced by `paths` (in order)
+/// and `trials` set to `trials` (added at the top when absent); comments and layout are
+/// kept. A campaign saves its scenario this way, so the saved file reruns from anywhere and
+/// says what ran, and fingerprints it this way with placeholders, so the original file and
+/// the saved one identify the same campaign.
+pub fn as_run_text(
+    text: &str,
+    file: &Path,
+    paths: &[&str],
+    trials: usize,
+) -> Result<String, ScenarioError> {
+    let places: RawPlaces = toml::from_str(text).map_err(|e| {
+        ScenarioError::new(file, e.span().map(|s| line_of(text, s.start)), e.message())
+    })?;
+    if places.fmus.len() != paths.len() {
+        return Err(ScenarioError::new(
+            file,
+            None,
+            format!(
+                "{} [[fmu]] entries, but {} FMU paths to write",
+                places.fmus.len(),
+                paths.len()
+            ),
+        ));
+    }
+    let mut edits: Vec<(std::ops::Range<usize>, String)> = places
+        .fmus
+        .iter()
+        .zip(paths)
+        .map(|(f, p)| {
+            (
+                f.path.span(),
+                toml::Value::String((*p).to_owned()).to_string(),
+            )
+        })
+        .collect();
+    let count = trials.to_string();
+    match &places.trials {
+        Some(t) => edits.push((t.span(), count)),
+        // A top-level key is valid before any table, i.e. first (after a byte-order mark).
+        None => {
+            let at = if text.starts_with('\u{feff}') { 3 } else { 0 };
+            edits.push((at..at, format!("trials = {count}\n")));
+        }
+    }
+    edits.sort_by_key(|(r, _)| r.start);
+    let mut out = String::with_capacity(text.len() + 256);
+    let mut at = 0;
+    for (range, new) in edits {
+        out.push_str(&text[at..range.start]);
+        out.push_str(&new);
+        at = range.end;
+    }
+    out.push_str(&text[at..]);
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1444,5 +1515,27 @@ mod tests {
         let err = with_parameters(3, "seed = { base = 0, per_trial = 9223372036854775807 }\n")
             .unwrap_err();
         assert!(err.message.contains("in trial 2"), "{err}");
+    }
+
+    /// The saved scenario keeps comments and layout, holds the given FMU paths and trial
+    /// count (added when absent), and rendering it again changes nothing.
+    #[test]
+    fn as_run_text_replaces_paths_and_trials_only() {
+        let text = "# my study\nstep_size = 0.001 # h\nstop_time = 1.0\n[[fmu]]\nname = \"a\"\n\
+                    path = \"../a.fmu\" # relative\n[[fmu]]\nname = \"b\"\npath = 'b.fmu'\n";
+        let file = Path::new("s.toml");
+        let run = as_run_text(text, file, &["/abs/a.fmu", "C:\\x\\b.fmu"], 5).unwrap();
+        assert!(run.starts_with("trials = 5\n# my study\n"), "{run}");
+        assert!(run.contains("path = \"/abs/a.fmu\" # relative\n"), "{run}");
+        let doc: toml::Table = toml::from_str(&run).unwrap();
+        assert_eq!(doc["fmu"][1]["path"].as_str(), Some("C:\\x\\b.fmu"));
+        assert_eq!(doc["trials"].as_integer(), Some(5));
+        assert!(run.contains("step_size = 0.001 # h\n"), "{run}");
+        let again = as_run_text(&run, file, &["/abs/a.fmu", "C:\\x\\b.fmu"], 5).unwrap();
+        assert_eq!(again, run);
+        // An existing trials key is replaced in place, whatever its value.
+        let other = as_run_text(&run, file, &["", ""], 0).unwrap();
+        assert_eq!(other, as_run_text(text, file, &["", ""], 0).unwrap());
+        assert!(as_run_text(text, file, &["x"], 1).is_err());
     }
 }

@@ -351,3 +351,80 @@ fn unmeasured_trials_are_reported_as_such() {
         summary
     );
 }
+
+/// FNV-1a 64 as earlier versions fingerprinted a campaign: the scenario text as given, then
+/// the FMU files.
+fn earlier_fingerprint(text: &str, fmu: &Path) -> String {
+    let fnv = |h: u64, bytes: &[u8]| {
+        bytes
+            .iter()
+            .fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    };
+    let h = fnv(0xcbf2_9ce4_8422_2325, text.as_bytes());
+    format!("{:016x}", fnv(h, &std::fs::read(fmu).unwrap()))
+}
+
+/// The saved `scenario.toml` is the scenario as run: its FMU paths resolve from the output
+/// folder (the original's were relative to the original file) and it holds the `--trials`
+/// count. `--resume` from it finishes the campaign byte-identical to an uninterrupted run,
+/// and a campaign begun by an earlier version (its fingerprint over the text as given, its
+/// scenario.toml a verbatim copy) still resumes from the original file.
+#[test]
+fn the_saved_scenario_reruns_and_resumes_from_the_output_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path().join("src");
+    std::fs::create_dir(&src).unwrap();
+    let s = scenario(&src, "");
+    let fmu = src.join("DampedOscillator.fmu");
+    let relative = std::fs::read_to_string(&s)
+        .unwrap()
+        .replace(&fmu.display().to_string(), "DampedOscillator.fmu");
+    std::fs::write(&s, &relative).unwrap();
+
+    let whole = tmp.path().join("whole");
+    let o = run(&s, &whole, &["--trials", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = tmp.path().join("out");
+    let o = run(&s, &out, &["--trials", "5", "--stop-after", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let saved_path = out.join("scenario.toml");
+    let saved: toml::Table =
+        toml::from_str(&std::fs::read_to_string(&saved_path).unwrap()).unwrap();
+    assert_eq!(saved["trials"].as_integer(), Some(5));
+    let path = Path::new(saved["fmu"][0]["path"].as_str().unwrap());
+    assert!(path.is_absolute() && path.is_file(), "{}", path.display());
+
+    // Resumed from the saved file, run from another working directory.
+    let o = orchestrator()
+        .current_dir(tmp.path())
+        .arg("run")
+        .arg(&saved_path)
+        .arg("--out")
+        .arg(&out)
+        .arg("--resume")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&whole, &out, "after a resume from the saved scenario");
+
+    // A campaign of an earlier version: resumed from the original file, it ends as a new one.
+    let old = tmp.path().join("old");
+    assert!(
+        run(&s, &old, &["--trials", "5", "--stop-after", "2"])
+            .status
+            .success()
+    );
+    std::fs::write(old.join("scenario.toml"), &relative).unwrap();
+    let progress = format!(
+        "completed = 2\nfingerprint = \"{}\"\n",
+        earlier_fingerprint(&relative, &fmu)
+    );
+    std::fs::write(old.join("progress.toml"), progress).unwrap();
+    let o = run(&s, &old, &["--trials", "5", "--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(
+        &whole,
+        &old,
+        "after resuming a campaign of an earlier version",
+    );
+}
