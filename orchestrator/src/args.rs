@@ -229,7 +229,7 @@ pub struct SweepMergeArgs {
     /// The shard folders (each written by `sweep --shard K/N`), all N of them.
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
-    /// Output directory for the merged sweep.
+    /// Output directory for the merged sweep (new or empty).
     #[arg(short, long)]
     pub out: PathBuf,
 }

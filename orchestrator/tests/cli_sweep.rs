@@ -8,7 +8,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
-use common::{built_fmu, orchestrator};
+use common::{built_fmu, orchestrator, tree};
 
 /// Runs a command that must fail with an `error:` line containing every needle.
 trait Fails {
@@ -144,6 +144,22 @@ fn shards_merge_to_the_plain_run_byte_for_byte() {
         let got = results(&merged);
         for ((name, want), (_, have)) in reference.iter().zip(&got) {
             assert!(want == have, "N = {n}: {name} differs from the plain run");
+        }
+        // A folder holding anything (a merge, a shard, a campaign) is refused, untouched.
+        for full in [&merged, &shards[0]] {
+            let before = tree(full);
+            orchestrator()
+                .args(["sweep", "merge"])
+                .arg(&sweep)
+                .args(&shards)
+                .arg("--out")
+                .arg(full)
+                .fails(&["the folder is not empty", "--out"]);
+            assert!(
+                tree(full) == before,
+                "a refused merge changed {}",
+                full.display()
+            );
         }
     }
 }

@@ -308,6 +308,11 @@ fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
     write_atomic(path, |w| w.write_all(text.as_bytes()))
 }
 
+/// Whether `dir` exists and holds anything: a sweep's output folder must not, unless resumed.
+fn holds_files(dir: &Path) -> bool {
+    fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some())
+}
+
 /// Whether a case ended (completed or failed) in an earlier run.
 fn finished(out: &Path, i: usize) -> bool {
     case_dir(out, i).join("outcome.toml").exists()
@@ -327,11 +332,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let fp = fingerprint(spec);
     let stamp = out.join("sweep.toml");
-    if out.exists()
-        && fs::read_dir(out)
-            .map(|mut d| d.next().is_some())
-            .unwrap_or(false)
-    {
+    if holds_files(out) {
         if !opts.resume {
             return Err(SweepError::Dir {
                 dir: out.clone(),
@@ -465,6 +466,14 @@ struct ShardStamp {
 /// Combines shard directories of `spec` into `out`: copies every case and writes the results
 /// exactly as an unsharded run would.
 pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(), SweepError> {
+    // Merged into a folder holding other files, the results would mix with them (or, in a
+    // shard's folder, with its shard.toml).
+    if holds_files(out) {
+        return Err(SweepError::Dir {
+            dir: out.to_path_buf(),
+            message: "the folder is not empty; merge into a new or empty --out".into(),
+        });
+    }
     let fp = fingerprint(spec);
     let mut seen: Vec<Option<&Path>> = Vec::new();
     let mut total = None;
@@ -539,10 +548,7 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
     write_text(&out.join("sweep.toml"), &spec.text)?;
     for i in 0..spec.cases.len() {
         let from = case_dir(seen[i % n].unwrap_or(Path::new(".")), i);
-        let to = case_dir(out, i);
-        if from != to {
-            copy_tree(&from, &to)?;
-        }
+        copy_tree(&from, &case_dir(out, i))?;
     }
     write_results(spec, out)
 }
