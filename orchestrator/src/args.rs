@@ -158,8 +158,7 @@ pub struct AnalyzeArgs {
     /// (default: results/<scenario file stem>-convergence). The summary also goes to stdout.
     #[arg(short, long)]
     pub out: Option<PathBuf>,
-    /// Butterworth order N_Q of the filter (default: the scenario's, else 4).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_order, help = order_help())]
     pub order: Option<usize>,
     /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
     #[arg(long, conflicts_with = "no_filter")]
@@ -185,6 +184,25 @@ pub struct AnalyzeArgs {
     /// Spacing, s, of the poses sampled along the reference.
     #[arg(long, default_value_t = 0.005)]
     pub stride: f64,
+}
+
+/// `analyze --order`: the bounds a scenario's `order` has (`ckcm::learning::MAX_ORDER`), so
+/// analyze never predicts for a filter `run` refuses.
+fn parse_order(text: &str) -> Result<usize, String> {
+    let max = ckcm::learning::MAX_ORDER;
+    match text.parse::<usize>() {
+        Ok(o) if (1..=max).contains(&o) => Ok(o),
+        _ => Err(format!(
+            "the Butterworth order must be an integer between 1 and {max}, as in a scenario"
+        )),
+    }
+}
+
+fn order_help() -> String {
+    format!(
+        "Butterworth order N_Q of the filter, 1 to {} (default: the scenario's, else 4)",
+        ckcm::learning::MAX_ORDER
+    )
 }
 
 /// `sweep`.

@@ -155,7 +155,15 @@ fn bad_settings_are_named_and_nothing_is_written() {
     for (extra, expected) in [
         (&["--cutoff", "500"][..], "cutoff = 500"),
         (&["--cutoff", "NaN"][..], "cutoff = NaN"),
-        (&["--cutoff", "8", "--order", "0"][..], "order = 0"),
+        (
+            &["--cutoff", "8", "--order", "0"][..],
+            "'0' for '--order <ORDER>': the Butterworth order must be an integer between 1 and 8",
+        ),
+        // The bound of a scenario's order (run refuses order = 20), not a looser one.
+        (
+            &["--cutoff", "8", "--order", "20"][..],
+            "'20' for '--order <ORDER>': the Butterworth order must be an integer between 1 and 8",
+        ),
         (
             &["--lead", "5000"][..],
             "lead = 5000 samples must be below the 5000",
