@@ -39,6 +39,15 @@ impl ScenarioError {
         }
     }
 
+    /// Every problem's message without file and line: for a scenario generated in memory
+    /// (a sweep's case, a paper case), whose file and lines the user never sees.
+    pub fn messages(&self) -> Vec<String> {
+        std::iter::once(self)
+            .chain(&self.more)
+            .map(|e| e.message.clone())
+            .collect()
+    }
+
     fn write_one(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}", self.file.display())?;
         if let Some(l) = self.line {

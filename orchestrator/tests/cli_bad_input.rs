@@ -349,3 +349,35 @@ fn simulate_setting_an_unknown_variable() {
     )
     .says("similar names: base_radius, platform_radius");
 }
+
+/// `paper` generates its scenarios in memory: a refused one is named by its case and the
+/// options it comes from, not by a scenario.toml that was never written.
+#[test]
+fn paper_names_the_case_of_a_refused_generated_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmus = dir.path().join("fmus");
+    std::fs::create_dir(&fmus).unwrap();
+    std::fs::copy(built_fmu("CkcmPlant"), fmus.join("CkcmPlant.fmu")).unwrap();
+    std::fs::copy(foreign_fmu(dir.path()), fmus.join("HlcsController.fmu")).unwrap();
+    let out = dir.path().join("paper");
+    let f = fails(
+        &[
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            fmus.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--line-duration".as_ref(),
+            "1".as_ref(),
+            "--circle-duration".as_ref(),
+            "1".as_ref(),
+        ],
+        &out,
+    );
+    assert!(
+        f.stderr.contains("line / PID: its scenario, generated from the paper options and the FMUs in --fmu-dir, is refused: parameter \"trajectory\": DampedOscillator has no variable"),
+        "{}",
+        f.stderr
+    );
+    assert!(!f.stderr.contains("scenario.toml"), "{}", f.stderr);
+}

@@ -403,3 +403,40 @@ fn fmu_logging_forwards_the_fmus_messages() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("plant: [fmi2OK] "), "{err}");
 }
+
+/// A case's scenario is generated in memory: a problem in it names the sweep file, the case
+/// and the base scenario, never a generated file and line that do not exist.
+#[test]
+fn a_refused_case_names_the_sweep_case_and_base_not_a_generated_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 2);
+    let base = tmp.path().join("base.toml");
+    let text = fs::read_to_string(&base).unwrap();
+    fs::write(
+        &base,
+        text.replace("[record]\n", "[record]\ntrials = [2]\n"),
+    )
+    .unwrap();
+    let with_record = fs::read_to_string(&sweep)
+        .unwrap()
+        .replace("seed = 3\n", "seed = 3\nrecord = true\n");
+    fs::write(&sweep, with_record).unwrap();
+    let out = tmp.path().join("out");
+    let o = orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("{}: case 0 (0.8, ", sweep.display()))
+            && err.contains(&format!("generated from {}", base.display()))
+            && err.contains("record.trials lists trial 2, but trials are numbered 0..1"),
+        "{err}"
+    );
+    assert!(!err.contains("case_0000"), "{err}");
+    assert!(!out.exists(), "a refused sweep wrote {}", out.display());
+}

@@ -31,7 +31,6 @@ use self::figures::CaseData;
 pub use self::scenario::{recorded_trials, scenario_toml};
 use crate::campaign::{CampaignError, trial_csv};
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
-use crate::scenario::ScenarioError;
 
 /// Study settings.
 #[derive(Debug, Clone)]
@@ -69,9 +68,18 @@ pub enum PaperError {
         /// Why.
         message: String,
     },
-    /// A generated scenario was refused.
-    #[error(transparent)]
-    Scenario(#[from] ScenarioError),
+    /// A case's scenario, generated in memory from the options, was refused; its problems
+    /// without the file and lines of a text the user never sees.
+    #[error(
+        "{case}: its scenario, generated from the paper options and the FMUs in --fmu-dir, \
+         is refused: {}",
+        problems.join("; ")
+    )]
+    Scenario {
+        /// The case, e.g. `line / PID`.
+        case: String,
+        problems: Vec<String>,
+    },
     /// A campaign failed.
     #[error(transparent)]
     Campaign(#[from] CampaignError),

@@ -198,7 +198,11 @@ pub(super) fn run_scenario(
     show_progress: bool,
 ) -> Result<Vec<TrialSummary>, PaperError> {
     let source: PathBuf = dir.join("scenario.toml");
-    let (scenario, fmus) = Scenario::open_text(text, &source)?;
+    let (scenario, fmus) =
+        Scenario::open_text(text, &source).map_err(|e| PaperError::Scenario {
+            case: what.to_owned(),
+            problems: e.messages(),
+        })?;
     if opts.progress && show_progress {
         eprintln!("{what}");
     }

@@ -27,19 +27,26 @@ pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
 use crate::campaign::{CampaignError, CampaignOptions, fnv1a, run_campaign};
 use crate::output::{OutputError, write_atomic};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::Scenario;
 
 /// A sweep failure; a failing case is not one (it is recorded as failed and the sweep goes on).
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
     #[error(transparent)]
     Spec(#[from] SweepSpecError),
-    #[error("{}: case {case} ({labels}): {source}", file.display())]
+    /// A case's scenario (generated in memory, never written) was refused.
+    #[error(
+        "{}: case {case} ({labels}): its scenario, generated from {}, is refused: {}",
+        file.display(),
+        base.display(),
+        problems.join("; ")
+    )]
     Case {
         file: PathBuf,
         case: usize,
         labels: String,
-        source: Box<ScenarioError>,
+        base: PathBuf,
+        problems: Vec<String>,
     },
     #[error("{}: FMU {}: {message}", file.display(), fmu.display())]
     Fmu {
@@ -262,7 +269,11 @@ fn memory_table<'d>(doc: &'d mut toml::Table, to: &str) -> Result<&'d mut toml::
 }
 
 /// Every case's scenario, validated against the FMUs before anything runs.
-fn plan(spec: &SweepSpec, base: &BaseFmus) -> Result<Vec<(Scenario, String)>, SweepError> {
+fn plan(
+    spec: &SweepSpec,
+    base: &BaseFmus,
+    out: &Path,
+) -> Result<Vec<(Scenario, String)>, SweepError> {
     // Parameters named by an axis must exist, so a typo fails at its own line.
     for axis in &spec.axes {
         if let Target::Parameters(ps) = &axis.target {
@@ -288,16 +299,18 @@ fn plan(spec: &SweepSpec, base: &BaseFmus) -> Result<Vec<(Scenario, String)>, Sw
     }
     (0..spec.cases.len())
         .map(|i| {
-            let case_err = |source: ScenarioError| SweepError::Case {
+            let case_err = |problems: Vec<String>| SweepError::Case {
                 file: spec.source.clone(),
                 case: i,
                 labels: spec.case_labels(i).join(", "),
-                source: Box::new(source),
+                base: spec.base.clone(),
+                problems,
             };
-            let file = spec.source.with_file_name(format!("case_{i:04}.toml"));
-            let text = case_text(spec, base, i)
-                .map_err(|message| case_err(ScenarioError::new(file.clone(), None, message)))?;
-            let scenario = Scenario::parse(&text, &file, |p| base.md(p)).map_err(case_err)?;
+            let text = case_text(spec, base, i).map_err(|message| case_err(vec![message]))?;
+            // Where the case's campaign saves it (FMU paths are absolute, so it only labels).
+            let file = case_dir(out, i).join("scenario.toml");
+            let scenario = Scenario::parse(&text, &file, |p| base.md(p))
+                .map_err(|e| case_err(e.messages()))?;
             Ok((scenario, text))
         })
         .collect()
@@ -352,7 +365,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         }
     }
     let base = BaseFmus::open(spec)?;
-    let plans = plan(spec, &base)?;
+    let plans = plan(spec, &base, out)?;
     fs::create_dir_all(out.join("cases")).map_err(|e| SweepError::Dir {
         dir: out.clone(),
         message: e.to_string(),
