@@ -666,6 +666,14 @@ pub fn run_campaign(
                 },
             })
             .collect();
+        // Resuming with fewer trials than are done would run nothing and say nothing.
+        if p.completed > scenario.trials {
+            return Err(resume_err(format!(
+                "it holds {} completed trials, more than the {} asked for (trials in the \
+                 scenario or --trials); resume with at least {} trials",
+                p.completed, scenario.trials, p.completed
+            )));
+        }
         first = p.completed;
         if first > 0 {
             let lens: Vec<usize> = scenario

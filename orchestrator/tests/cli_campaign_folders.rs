@@ -406,6 +406,15 @@ fn the_saved_scenario_reruns_and_resumes_from_the_output_folder() {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     assert_same_tree(&whole, &out, "after a resume from the saved scenario");
+    // Fewer trials than are done is refused, not silently ignored.
+    let o = run(&saved_path, &out, &["--resume", "--trials", "2"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("it holds 5 completed trials, more than the 2 asked for"),
+        "{}",
+        stderr(&o)
+    );
+    assert_same_tree(&whole, &out, "after a refused resume with fewer trials");
 
     // A campaign of an earlier version: resumed from the original file, it ends as a new one.
     let old = tmp.path().join("old");
