@@ -63,7 +63,7 @@ pub struct RunArgs {
     /// Trials run at the same time (default: the available cores): trial k+1 runs on
     /// another core 256 steps behind trial k, when every memory channel has the plain
     /// update; 1 runs one trial after the other. Results do not depend on it.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = parse_jobs)]
     pub jobs: Option<usize>,
     /// Stop after this many trials in total, as if interrupted (for testing resume).
     #[arg(long, hide = true)]
@@ -144,7 +144,7 @@ pub struct PaperArgs {
     pub resume: bool,
     /// Campaigns to run at the same time (default: the available cores); results do not
     /// depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_jobs)]
     pub jobs: Option<usize>,
 }
 
@@ -186,6 +186,14 @@ pub struct AnalyzeArgs {
     pub stride: f64,
 }
 
+/// `--jobs` of run, paper and sweep alike: at least 1 (0 would run nothing, or one).
+fn parse_jobs(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err("must be a whole number of at least 1".into()),
+    }
+}
+
 /// `analyze --order`: the bounds a scenario's `order` has (`ckcm::learning::MAX_ORDER`), so
 /// analyze never predicts for a filter `run` refuses.
 fn parse_order(text: &str) -> Result<usize, String> {
@@ -218,7 +226,7 @@ pub struct SweepArgs {
     #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Cases run at the same time (default: the available cores); results do not depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_jobs)]
     pub jobs: Option<usize>,
     /// Run only shard K of N (cases i with i mod N = K), e.g. `--shard 3/8` or
     /// `--shard $SLURM_ARRAY_TASK_ID/8`; combine the shard folders with `sweep merge`.

@@ -381,3 +381,26 @@ fn paper_names_the_case_of_a_refused_generated_scenario() {
     );
     assert!(!f.stderr.contains("scenario.toml"), "{}", f.stderr);
 }
+
+/// `--jobs 0` means the same to every subcommand: refused, before anything runs.
+#[test]
+fn jobs_zero_is_refused_by_run_sweep_and_paper() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    for args in [
+        &["run", "s.toml"][..],
+        &["sweep", "sweep.toml"][..],
+        &["paper"][..],
+    ] {
+        let mut all: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+        all.extend([
+            "--jobs".as_ref(),
+            "0".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        fails(&all, &out)
+            .says("invalid value '0' for '--jobs")
+            .says("must be a whole number of at least 1");
+    }
+}

@@ -36,7 +36,6 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get));
-    anyhow::ensure!(jobs >= 1, "--jobs must be at least 1");
     let spec = SweepSpec::load(&file)?;
     let out = args
         .out
