@@ -77,8 +77,8 @@ pub fn validate(update: &UpdateSettings, h: f64) -> Result<(), ConvergenceError>
         check(
             "order",
             q.order as f64,
-            (1..=32).contains(&q.order),
-            "the filter order must be between 1 and 32",
+            (1..=crate::learning::MAX_ORDER).contains(&q.order),
+            "the filter order must be between 1 and 8 (learning::MAX_ORDER)",
         )?;
         check(
             "cutoff",

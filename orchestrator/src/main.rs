@@ -21,7 +21,7 @@ fn main() -> ExitCode {
     let _ = ctrlc::set_handler(|| {
         let removed = fmi2_import::remove_extraction_dirs();
         eprintln!(
-            "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign"
+            "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign, `sweep --resume` a sweep"
         );
         std::process::exit(EXIT_INTERRUPTED);
     });

@@ -598,6 +598,12 @@ fn build_axis(
         Some((0..n).map(|_| d.sample(&mut rng)).collect())
     } else if let Some((mean, sd)) = a.normal {
         finite(&[mean, sd])?;
+        // rand_distr takes a negative σ as |σ|; a typo there must not run a sweep.
+        if sd < 0.0 {
+            return Err(format!(
+                "normal [{mean}, {sd}]: the standard deviation must not be negative"
+            ));
+        }
         let n = samples()?;
         let d = Normal::new(mean, sd).map_err(|e| format!("normal({mean}, {sd}): {e}"))?;
         Some((0..n).map(|_| d.sample(&mut rng)).collect())
@@ -900,6 +906,10 @@ mod tests {
             (
                 "[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\nlinspace = [0.0, 1.0, 2]\n",
                 "exactly one",
+            ),
+            (
+                "[[axis]]\nparameters = [\"plant.rod_mass\"]\nnormal = [1.0, -0.1]\nsamples = 3\n",
+                "must not be negative",
             ),
         ];
         for (axis, want) in cases {
