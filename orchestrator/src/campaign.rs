@@ -72,6 +72,15 @@ pub enum CampaignError {
         dir.display()
     )]
     NotEmpty { dir: PathBuf, what: String },
+    #[error(
+        "cannot move {} aside to replace the campaign (--force): {source}; the old campaign \
+         is unchanged",
+        path.display()
+    )]
+    Replace {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("cannot remove {path}: {source}")]
     Remove {
         path: PathBuf,
@@ -545,17 +554,67 @@ fn remove_dir_if_present(path: &Path) -> Result<(), CampaignError> {
     }
 }
 
-/// Removes the files of a previous campaign in `dir` (only the campaign's own names),
-/// `progress.toml` first so an interruption never leaves a folder that claims trials.
-fn remove_campaign(dir: &Path) -> Result<(), CampaignError> {
-    remove_file_if_present(&dir.join("progress.toml"))?;
-    for file in ["summary.csv", "memory.csv", "scenario.toml"] {
-        remove_file_if_present(&dir.join(file))?;
+/// Folder inside a campaign folder that a replaced campaign's files are moved into before
+/// they are removed.
+const REPLACED_DIR: &str = ".replaced";
+
+/// The names a campaign writes in its folder, `progress.toml` first so that a folder never
+/// claims trials whose files are gone.
+const CAMPAIGN_NAMES: [&str; 6] = [
+    "progress.toml",
+    "summary.csv",
+    "memory.csv",
+    "scenario.toml",
+    "trials",
+    "memory",
+];
+
+/// Takes the files of a previous campaign out of `dir` (only the campaign's own names) for
+/// `--force`. They are first moved aside into [`REPLACED_DIR`] with `rename`; when a move
+/// fails, the ones already moved go back and the old campaign stays as it was. Only then are
+/// they removed: a removal that fails leaves them aside, named in the returned warning, and
+/// the new campaign goes on.
+fn replace_campaign(
+    dir: &Path,
+    mut rename: impl FnMut(&Path, &Path) -> std::io::Result<()>,
+) -> Result<Option<String>, CampaignError> {
+    let aside = dir.join(REPLACED_DIR);
+    // A run killed while replacing an earlier campaign leaves this folder; it was meant to go.
+    remove_dir_if_present(&aside)?;
+    let present: Vec<&str> = CAMPAIGN_NAMES
+        .into_iter()
+        .filter(|name| fs::symlink_metadata(dir.join(name)).is_ok())
+        .collect();
+    if !present.is_empty() {
+        fs::create_dir(&aside).map_err(|source| CampaignError::CreateDir {
+            path: aside.clone(),
+            source,
+        })?;
+        for (moved, name) in present.iter().enumerate() {
+            if let Err(source) = rename(&dir.join(name), &aside.join(name)) {
+                for back in present[..moved].iter().rev() {
+                    // Best effort: a move that worked one way works back.
+                    let _ = rename(&aside.join(back), &dir.join(back));
+                }
+                let _ = fs::remove_dir(&aside);
+                return Err(CampaignError::Replace {
+                    path: dir.join(name),
+                    source,
+                });
+            }
+        }
     }
-    for sub in ["trials", "memory"] {
-        remove_dir_if_present(&dir.join(sub))?;
-    }
-    remove_leftovers(dir, 0)
+    remove_leftovers(dir, 0)?;
+    Ok(fs::remove_dir_all(&aside)
+        .err()
+        .filter(|e| e.kind() != std::io::ErrorKind::NotFound)
+        .map(|e| {
+            format!(
+                "the replaced campaign's files remain in {} (cannot remove them: {e}); \
+                 remove that folder by hand",
+                aside.display()
+            )
+        }))
 }
 
 /// On resume after `completed` trials: removes temporary files of interrupted writes,
@@ -820,7 +879,9 @@ pub fn run_campaign(
             };
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
-                remove_campaign(dir)?;
+                if let Some(warning) = replace_campaign(dir, |from, to| fs::rename(from, to))? {
+                    bar.suspend(|| eprintln!("warning: {warning}"));
+                }
                 crash.tick();
             }
             // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
@@ -1041,5 +1102,88 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         assert_eq!(fnv1a(basis, b""), basis);
         assert_eq!(fnv1a(basis, b"a"), 0xaf63_dc4c_8601_ec8c);
         assert_eq!(fnv1a(basis, b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    /// A folder holding an old campaign, a temporary file and a file of the user's.
+    fn old_campaign(dir: &Path) {
+        for (file, text) in [
+            ("progress.toml", "completed = 2\n"),
+            ("summary.csv", "trial\n0\n1\n"),
+            ("scenario.toml", "trials = 2\n"),
+            ("trials/trial_000.csv", "t\n0\n"),
+            ("memory/after_trial_001.f64", "m"),
+            (".summary.csv.tmp-1-0", "torn"),
+            ("notes.txt", "mine"),
+        ] {
+            let path = dir.join(file);
+            fs::create_dir_all(path.parent().unwrap()).unwrap();
+            fs::write(path, text).unwrap();
+        }
+    }
+
+    fn listing(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = walk(dir, dir);
+        names.sort();
+        names
+    }
+
+    fn walk(root: &Path, dir: &Path) -> Vec<String> {
+        fs::read_dir(dir)
+            .unwrap()
+            .flat_map(|e| {
+                let path = e.unwrap().path();
+                if path.is_dir() {
+                    walk(root, &path)
+                } else {
+                    let text = fs::read_to_string(&path).unwrap();
+                    let name = path.strip_prefix(root).unwrap().display();
+                    vec![format!("{name}={text}")]
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_replaced_campaign_goes_and_the_users_files_stay() {
+        let tmp = tempfile::tempdir().unwrap();
+        old_campaign(tmp.path());
+        // A half-replaced campaign of a killed run is removed too.
+        fs::create_dir_all(tmp.path().join(".replaced/trials")).unwrap();
+        let warning = replace_campaign(tmp.path(), |a, b| fs::rename(a, b)).unwrap();
+        assert_eq!(warning, None);
+        assert_eq!(listing(tmp.path()), ["notes.txt=mine"]);
+    }
+
+    /// A move that fails part-way (the k-th of five) leaves the old campaign byte for byte,
+    /// with nothing aside, and the error names what could not be moved.
+    #[test]
+    fn a_failed_move_leaves_the_old_campaign_as_it_was() {
+        for fail_at in 0..5 {
+            let tmp = tempfile::tempdir().unwrap();
+            old_campaign(tmp.path());
+            let before = listing(tmp.path());
+            let mut calls = 0;
+            let err = replace_campaign(tmp.path(), |a, b| {
+                calls += 1;
+                if calls == fail_at + 1 {
+                    Err(std::io::Error::other("refused by the test"))
+                } else {
+                    fs::rename(a, b)
+                }
+            })
+            .unwrap_err();
+            let text = err.to_string();
+            assert!(text.contains("refused by the test"), "{text}");
+            assert!(text.contains("the old campaign is unchanged"), "{text}");
+            let names = [
+                "progress.toml",
+                "summary.csv",
+                "scenario.toml",
+                "trials",
+                "memory",
+            ];
+            assert!(text.contains(names[fail_at]), "{text}");
+            assert_eq!(listing(tmp.path()), before, "failing move {fail_at}");
+        }
     }
 }
