@@ -89,14 +89,20 @@ fn shards_merge_to_the_plain_run_byte_for_byte() {
     let tmp = tempfile::tempdir().unwrap();
     let sweep = setup(tmp.path(), 3);
     let plain = tmp.path().join("plain");
-    orchestrator()
+    let o = orchestrator()
         .arg("sweep")
         .arg(&sweep)
         .arg("--out")
         .arg(&plain)
         .args(["--jobs", "2"])
-        .assert()
-        .success();
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    // Progress counts the cases finished out of six, whatever order they finish in.
+    for count in 1..=6 {
+        assert!(err.contains(&format!(" done, {count} of 6 (")), "{err}");
+    }
     let reference = results(&plain);
     let csv = String::from_utf8(reference[0].1.clone()).unwrap();
     assert_eq!(csv.lines().count(), 7, "a header and six cases:\n{csv}");

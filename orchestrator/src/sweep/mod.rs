@@ -371,10 +371,16 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         message: e.to_string(),
     })?;
     write_text(&stamp, &spec.text)?;
-    let todo: Vec<usize> = (0..plans.len())
+    let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
+        .collect();
+    let todo: Vec<usize> = mine
+        .iter()
+        .copied()
         .filter(|&i| !finished(out, i))
         .collect();
+    // Cases of this run (this shard) finished so far, resumed ones included, for progress.
+    let done = AtomicUsize::new(mine.len() - todo.len());
     let jobs = opts.jobs.clamp(1, todo.len().max(1));
     let next = AtomicUsize::new(0);
     let first_error: Mutex<Option<SweepError>> = Mutex::new(None);
@@ -394,9 +400,10 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                         break;
                     }
                     if opts.progress {
+                        let count = done.fetch_add(1, Ordering::Relaxed) + 1;
                         eprintln!(
-                            "case {i}/{} done ({})",
-                            plans.len() - 1,
+                            "case {i} done, {count} of {} ({})",
+                            mine.len(),
                             spec.case_labels(i).join(", ")
                         );
                     }
