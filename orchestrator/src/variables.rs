@@ -159,7 +159,24 @@ pub fn convert(
             Literal::Toml(_) => None,
         }
         .map(Value::Integer)
-        .ok_or_else(|| format!("'{literal}' is not an integer ('{name}' is an Integer)")),
+        .ok_or_else(|| {
+            let whole = match literal {
+                Literal::Text(t) => t.trim().parse::<f64>().ok(),
+                Literal::Toml(T::Integer(i)) => Some(*i as f64),
+                Literal::Toml(T::Float(x)) => Some(*x),
+                Literal::Toml(_) => None,
+            }
+            .is_some_and(|x| x.is_finite() && x.fract() == 0.0);
+            if whole {
+                format!(
+                    "'{literal}' is out of range: '{name}' is an Integer, from {} to {}",
+                    i32::MIN,
+                    i32::MAX
+                )
+            } else {
+                format!("'{literal}' is not an integer ('{name}' is an Integer)")
+            }
+        }),
         VariableKind::Boolean { .. } => match literal {
             Literal::Text(t) => match t.trim() {
                 "true" | "1" => Some(true),
@@ -337,6 +354,15 @@ mod tests {
             a.unwrap_err(),
             "'2.5' is not an integer ('n' is an Integer)"
         );
+        let (a, b) = both("n", "2147483648", "2147483648");
+        assert_eq!(a, b);
+        assert_eq!(
+            a.unwrap_err(),
+            "'2147483648' is out of range: 'n' is an Integer, from -2147483648 to 2147483647"
+        );
+        let (a, b) = both("n", "-3e9", "-3e9");
+        assert!(a.unwrap_err().contains("out of range"));
+        assert!(b.unwrap_err().contains("out of range"));
         let (a, b) = both("mode", "3", "3");
         assert_eq!(a, b);
         assert!(a.unwrap_err().contains("takes one of: off (1), on (2)"));
