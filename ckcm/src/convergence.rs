@@ -180,6 +180,10 @@ pub fn modal_masses(mechanism: &Mechanism, pose: &Pose) -> Result<[f64; MODES], 
     Ok(eig)
 }
 
+/// Most poses [`mass_history`] samples: a stride far below the trajectory's time scale
+/// would otherwise allocate and decompose without bound (1e6 poses take about a second).
+pub const MAX_POSES: f64 = 1e6;
+
 /// Modal masses (ascending at each pose) along `trajectory` every `stride` seconds and at its
 /// end: (time s, masses kg).
 pub fn mass_history(
@@ -188,6 +192,12 @@ pub fn mass_history(
     stride: f64,
 ) -> Result<Vec<(f64, [f64; MODES])>, ConvergenceError> {
     check("stride", stride, stride > 0.0, "must be positive")?;
+    check(
+        "stride",
+        stride,
+        trajectory.duration / stride <= MAX_POSES,
+        "samples more than 1e6 poses along the trajectory",
+    )?;
     let n = (trajectory.duration / stride).ceil() as usize;
     (0..=n)
         .map(|i| {

@@ -171,6 +171,12 @@ fn bad_settings_are_named_and_nothing_is_written() {
         (&["--order", "4"][..], "--order needs a cutoff"),
         (&["--gain", "inf"][..], "gain = inf"),
         (&["--gain-scale=-1"][..], "--gain-scale = -1"),
+        // Five billion poses on the 5 s circle: refused before any is sampled.
+        (
+            &["--stride", "1e-9"][..],
+            "--stride = 0.000000001 s samples more than 1e6 poses along the 5 s reference; \
+             use at least 5e-6 s",
+        ),
     ] {
         let o = analyze(&scenario, &out, extra);
         let stderr = String::from_utf8_lossy(&o.stderr);

@@ -275,6 +275,15 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
             bail!("--{name} = {x} s must be positive");
         }
     }
+    if duration / args.stride > ckcm::convergence::MAX_POSES {
+        bail!(
+            "--stride = {} s samples more than {:e} poses along the {duration} s reference; \
+             use at least {:e} s",
+            args.stride,
+            ckcm::convergence::MAX_POSES,
+            duration / ckcm::convergence::MAX_POSES
+        );
+    }
     let update = update(args, scenario)?;
     Ok(Problem {
         plant,
