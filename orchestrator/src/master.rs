@@ -10,7 +10,7 @@ use std::ops::Range;
 use ckcm::learning::MemoryUpdate;
 use fmi2_import::{Fmu, ImportError, Instance};
 
-use crate::output::Recording;
+use crate::output::{Recording, seconds};
 use crate::scenario::{Port, Scenario};
 use crate::variables::set_value;
 
@@ -22,7 +22,7 @@ pub enum MasterError {
         fmu: String,
         source: Box<ImportError>,
     },
-    #[error("trial {trial}, t = {time} s: {what} of FMU {fmu:?} failed: {source}")]
+    #[error("trial {trial}, t = {} s: {what} of FMU {fmu:?} failed: {source}", seconds(*time))]
     Call {
         trial: usize,
         time: f64,
@@ -31,8 +31,9 @@ pub enum MasterError {
         source: Box<ImportError>,
     },
     #[error(
-        "trial {trial}, t = {time} s: fmi2DoStep of FMU {fmu:?} was discarded{}{}: {source}",
-        last_successful_time.map(|t| format!(" (last successful time {t} s)")).unwrap_or_default(),
+        "trial {trial}, t = {} s: fmi2DoStep of FMU {fmu:?} was discarded{}{}: {source}",
+        seconds(*time),
+        last_successful_time.map(|t| format!(" (last successful time {} s)", seconds(t))).unwrap_or_default(),
         if *terminated { "; the FMU asks to terminate the simulation" } else { "" }
     )]
     Discard {
@@ -44,8 +45,9 @@ pub enum MasterError {
         source: Box<ImportError>,
     },
     #[error(
-        "trial {trial}, t = {time} s: FMU {fmu:?} returned {variable} = {value} from \
-         fmi2GetReal with status fmi2OK; a value that is not finite stops the trial"
+        "trial {trial}, t = {} s: FMU {fmu:?} returned {variable} = {value} from \
+         fmi2GetReal with status fmi2OK; a value that is not finite stops the trial",
+        seconds(*time)
     )]
     NotFinite {
         trial: usize,

@@ -15,7 +15,7 @@ use fmi2_md::Causality;
 use fmi2_md::{ModelDescription, ScalarVariable, VariableKind};
 
 use crate::master::STATUS_CATEGORIES;
-use crate::output::Recording;
+use crate::output::{Recording, seconds};
 use crate::variables::{
     Literal, Value, causality_phrase, check_value, convert, no_such_variable, resolve, set_value,
     settable,
@@ -47,8 +47,9 @@ pub enum SimulateError {
     },
     /// An output was NaN or infinite although the call returned fmi2OK.
     #[error(
-        "FMU {instance:?} returned {variable} = {value} at t = {time} s from fmi2GetReal with \
-         status fmi2OK; a value that is not finite stops the simulation"
+        "FMU {instance:?} returned {variable} = {value} at t = {} s from fmi2GetReal with \
+         status fmi2OK; a value that is not finite stops the simulation",
+        seconds(*time)
     )]
     NotFinite {
         instance: String,
@@ -697,7 +698,7 @@ fn run_plan(
         if let Some(inputs) = &mut plan.inputs {
             let status = inputs
                 .apply(&mut inst, t, slack)
-                .during(|| format!("setting the inputs at t = {t} s"))?;
+                .during(|| format!("setting the inputs at t = {} s", seconds(t)))?;
             report_log(&inst, status, verbose);
         }
         let status = match inst.do_step(t, h, true) {
@@ -720,7 +721,8 @@ fn run_plan(
                 let _ = inst.terminate();
                 let why: Vec<String> = messages.iter().map(ToString::to_string).collect();
                 let notice = format!(
-                    "fmi2DoStep from t = {t} s by {h} s returned fmi2Discard{}{}",
+                    "fmi2DoStep from t = {} s by {h} s returned fmi2Discard{}{}",
+                    seconds(t),
                     if terminated {
                         " and the FMU asks to terminate"
                     } else {
@@ -735,7 +737,7 @@ fn run_plan(
                 let text = plan.recorder.take_text();
                 return Ok((recording, text, Some(notice)));
             }
-            Err(e) => return Err(e).during(|| format!("step from t = {t} s by {h} s")),
+            Err(e) => return Err(e).during(|| format!("step from t = {} s by {h} s", seconds(t))),
         };
         report_log(&inst, status, verbose);
         let t_next = grid.time(n + 1);

@@ -21,6 +21,19 @@ pub use self::csv::{
 pub use self::parquet::ParquetExporter;
 pub use self::recording::Recording;
 
+/// A simulation time for messages: to the nanosecond, trailing zeros dropped, so a time the
+/// master reached by adding steps reads as the user wrote it (0.943, not 0.9430000000000001).
+pub fn seconds(t: f64) -> String {
+    let text = format!("{t:.9}");
+    if !text.contains('.') {
+        return text;
+    }
+    match text.trim_end_matches('0').trim_end_matches('.') {
+        "-0" => "0".into(),
+        short => short.into(),
+    }
+}
+
 /// Failure to write or read a result file; every variant names the file so a user running a
 /// long study knows which output is affected.
 #[derive(Debug, thiserror::Error)]
@@ -60,5 +73,24 @@ impl OutputError {
         match self {
             Self::Io { path, .. } | Self::Csv { path, .. } | Self::Plot { path, .. } => path,
         }
+    }
+}
+
+#[cfg(test)]
+mod seconds_tests {
+    use super::seconds;
+
+    #[test]
+    fn times_read_as_written() {
+        assert_eq!(seconds(0.943_000_000_000_000_1), "0.943");
+        assert_eq!(seconds(0.1 + 0.2), "0.3");
+        assert_eq!(seconds(15.0), "15");
+        assert_eq!(seconds(0.0), "0");
+        assert_eq!(seconds(-1e-12), "0");
+        assert_eq!(seconds(-2.5), "-2.5");
+        assert_eq!(seconds(1.5e-6), "0.0000015");
+        assert_eq!(seconds(1e7 + 0.001), "10000000.001");
+        assert_eq!(seconds(f64::NAN), "NaN");
+        assert_eq!(seconds(f64::INFINITY), "inf");
     }
 }
