@@ -173,6 +173,20 @@ impl TrialSummary {
         r
     }
 
+    /// The overall cells for the study's tables: max, RMS and λ-norm over the legs, then the
+    /// path's max and RMS; empty where the trial was not measured.
+    pub fn overall_cells(&self) -> [String; 5] {
+        let text = |x: Option<f64>| x.map(|x| x.to_string()).unwrap_or_default();
+        let legs = self.legs.map(|l| l.overall);
+        [
+            text(legs.map(|o| o.max)),
+            text(legs.map(|o| o.rms)),
+            text(legs.map(|o| o.lambda)),
+            text(self.path.map(|p| p.max)),
+            text(self.path.map(|p| p.rms)),
+        ]
+    }
+
     /// Parses a row written by [`TrialSummary::to_row`] (by this version or an earlier one).
     pub fn from_row(row: &[String]) -> Option<Self> {
         let num = |i: usize| row.get(i)?.parse::<f64>().ok();
@@ -1084,6 +1098,11 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         assert_eq!(row.len(), summary_header().len());
         assert_eq!(row[0], "2");
         assert!(row[1..].iter().all(String::is_empty), "{row:?}");
+        assert!(s.overall_cells().iter().all(String::is_empty));
+        // The study's overall cells are the summary row's last five.
+        let measured = TrialSummary::compute(2, &scenario(0.0), &signals(0.0));
+        assert_eq!(measured.to_row()[19..], measured.overall_cells());
+        assert!(measured.overall_cells().iter().all(|c| !c.is_empty()));
         assert_eq!(TrialSummary::from_row(&row), Some(s));
         let mut old = vec!["2".to_string()];
         old.extend(std::iter::repeat_n("0".to_string(), 21));

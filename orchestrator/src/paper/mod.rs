@@ -263,22 +263,13 @@ fn write_convergence_table(opts: &PaperOptions, results: &[CaseResult]) -> Resul
         .iter()
         .flat_map(|r| {
             r.summaries.iter().map(move |s| {
-                vec![
+                let mut row = vec![
                     traj_slug(r.trajectory).to_string(),
                     r.scheme.slug().to_string(),
                     s.trial.to_string(),
-                    s.legs
-                        .map(|l| l.overall.max.to_string())
-                        .unwrap_or_default(),
-                    s.legs
-                        .map(|l| l.overall.rms.to_string())
-                        .unwrap_or_default(),
-                    s.legs
-                        .map(|l| l.overall.lambda.to_string())
-                        .unwrap_or_default(),
-                    s.path.map(|p| p.max.to_string()).unwrap_or_default(),
-                    s.path.map(|p| p.rms.to_string()).unwrap_or_default(),
-                ]
+                ];
+                row.extend(s.overall_cells());
+                row
             })
         })
         .collect();

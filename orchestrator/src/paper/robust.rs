@@ -188,16 +188,13 @@ pub(super) fn write_table(out: &Path, results: &[Vec<TrialSummary>]) -> Result<(
         .zip(results)
         .flat_map(|(c, summaries)| {
             summaries.iter().map(move |s| {
+                let [max, rms, ..] = s.overall_cells();
                 vec![
                     traj_slug(c.trajectory).to_owned(),
                     c.slug.to_owned(),
                     s.trial.to_string(),
-                    s.legs
-                        .map(|l| l.overall.max.to_string())
-                        .unwrap_or_default(),
-                    s.legs
-                        .map(|l| l.overall.rms.to_string())
-                        .unwrap_or_default(),
+                    max,
+                    rms,
                 ]
             })
         })
