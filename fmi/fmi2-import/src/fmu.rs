@@ -64,10 +64,12 @@ impl Fmu {
             source,
         })?;
         let platforms = platforms_in(&archive);
-        unpack(&mut archive, dir.path()).map_err(|e| ImportError::Unpack {
-            path: path.clone(),
-            detail: e.to_string(),
-        })?;
+        max_unpacked_bytes()
+            .and_then(|limit| unpack(&mut archive, dir.path(), limit))
+            .map_err(|detail| ImportError::Unpack {
+                path: path.clone(),
+                detail,
+            })?;
 
         let md_path = dir.path().join("modelDescription.xml");
         let md = ModelDescription::from_file(&md_path).map_err(|source| {
@@ -231,10 +233,15 @@ fn platforms_in<R: Read + Seek>(archive: &zip::ZipArchive<R>) -> Vec<String> {
 /// and resolves symbolic links safely, and it has no per-entry filter of its own. When the
 /// wanted entries are too big to copy in memory (over [`COPY_LIMIT`] compressed), or should
 /// the copy fail, everything is extracted as before.
+///
+/// The entries' declared sizes must add up to no more than `limit` bytes (the reader stops
+/// an entry that inflates past its declared size), so a zip bomb is refused before anything
+/// is written instead of filling the disk.
 fn unpack<R: Read + Seek>(
     archive: &mut zip::ZipArchive<R>,
     dir: &Path,
-) -> zip::result::ZipResult<()> {
+    limit: u64,
+) -> Result<(), String> {
     // Only a plain relative name may be left out: any other stays for `extract` to judge,
     // so `binaries/win64/../../x` is refused as before instead of silently skipped.
     let plain = |name: &str| {
@@ -247,13 +254,47 @@ fn unpack<R: Read + Seek>(
     let wanted: Vec<usize> = (0..archive.len())
         .filter(|&i| !matches!(archive.name_for_index(i), Some(Ok(n)) if foreign(&n)))
         .collect();
-    if wanted.len() == archive.len() {
-        return archive.extract(dir);
+    let mut total = 0u64;
+    for &i in &wanted {
+        let size = archive.by_index_raw(i).map_err(|e| e.to_string())?.size();
+        total = total.saturating_add(size);
     }
-    match copy_entries(archive, &wanted) {
-        Ok(mut own) => own.extract(dir),
-        Err(_) => archive.extract(dir),
+    if total > limit {
+        return Err(format!(
+            "its files unpack to {:.1} MiB, more than the limit of {} MiB (set \
+             {MAX_UNPACKED_VAR} to a number of MiB to allow more)",
+            total as f64 / f64::from(1 << 20),
+            limit >> 20
+        ));
     }
+    let result = if wanted.len() == archive.len() {
+        archive.extract(dir)
+    } else {
+        match copy_entries(archive, &wanted) {
+            Ok(mut own) => own.extract(dir),
+            Err(_) => archive.extract(dir),
+        }
+    };
+    result.map_err(|e| e.to_string())
+}
+
+/// Environment variable raising (or lowering) [`DEFAULT_MAX_UNPACKED_MIB`].
+pub const MAX_UNPACKED_VAR: &str = "FMI2_IMPORT_MAX_UNPACKED_MIB";
+
+/// Most MiB an FMU may unpack to unless [`MAX_UNPACKED_VAR`] says otherwise: far above
+/// real FMUs (the shipped ones unpack to about 10 MiB), far below a full disk.
+pub const DEFAULT_MAX_UNPACKED_MIB: u64 = 2048;
+
+/// The unpacking limit in bytes.
+fn max_unpacked_bytes() -> Result<u64, String> {
+    let mib = match std::env::var(MAX_UNPACKED_VAR) {
+        Err(_) => DEFAULT_MAX_UNPACKED_MIB,
+        Ok(v) => v
+            .trim()
+            .parse::<u64>()
+            .map_err(|_| format!("{MAX_UNPACKED_VAR} = {v:?} is not a whole number of MiB"))?,
+    };
+    Ok(mib.saturating_mul(1 << 20))
 }
 
 /// The most compressed bytes [`unpack`] copies into memory to leave other platforms'
@@ -382,8 +423,36 @@ fn finish_dir_uri(mut uri: String) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{file_uri, windows_file_uri};
+    use super::{file_uri, unpack, windows_file_uri};
+    use std::io::{Cursor, Write};
     use std::path::Path;
+
+    /// An archive of a small file and 2 MiB of zeros (which deflate to about 2 KiB).
+    fn zeros_archive() -> zip::ZipArchive<Cursor<Vec<u8>>> {
+        let mut w = zip::ZipWriter::new(Cursor::new(Vec::new()));
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        w.start_file("modelDescription.xml", opts).unwrap();
+        w.write_all(b"<x/>").unwrap();
+        w.start_file("resources/zeros.bin", opts).unwrap();
+        w.write_all(&vec![0u8; 2 << 20]).unwrap();
+        w.finish_into_readable().unwrap()
+    }
+
+    #[test]
+    fn an_archive_beyond_the_unpacking_limit_is_refused_before_writing() {
+        let dir = tempfile::tempdir().unwrap();
+        let err = unpack(&mut zeros_archive(), dir.path(), 1 << 20).unwrap_err();
+        assert_eq!(
+            err,
+            "its files unpack to 2.0 MiB, more than the limit of 1 MiB (set \
+             FMI2_IMPORT_MAX_UNPACKED_MIB to a number of MiB to allow more)"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        unpack(&mut zeros_archive(), dir.path(), 3 << 20).unwrap();
+        let unpacked = std::fs::metadata(dir.path().join("resources/zeros.bin")).unwrap();
+        assert_eq!(unpacked.len(), 2 << 20);
+    }
 
     #[test]
     fn windows_paths_become_drive_and_unc_uris() {
