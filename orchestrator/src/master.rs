@@ -153,6 +153,9 @@ impl Wiring {
         fmu: &str,
     ) -> Result<(), MasterError> {
         let outputs = &bus[self.bus_range.clone()];
+        if all_finite(outputs) {
+            return Ok(());
+        }
         match outputs.iter().position(|x| !x.is_finite()) {
             None => Ok(()),
             Some(i) => Err(MasterError::NotFinite {
@@ -164,6 +167,19 @@ impl Wiring {
             }),
         }
     }
+}
+
+/// Whether every value is finite, without a branch per value: an exponent field of all ones
+/// (NaN or infinity) plus one reaches the sign bit, and any other does not. The compiler
+/// vectorises this; `iter().all(f64::is_finite)` stops at each value and cost about 5 M
+/// instructions per 15 s trial (BENCHMARKS.md, round 14).
+fn all_finite(values: &[f64]) -> bool {
+    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
+    const ONE: u64 = 1 << 52;
+    let carry = values
+        .iter()
+        .fold(0, |acc, x| acc | ((x.to_bits() & EXPONENT) + ONE));
+    carry >> 63 == 0
 }
 
 /// `len` consecutive bus slots from `slot` copied to a row (the recording columns, or a
@@ -728,5 +744,48 @@ impl<'s> Master<'s> {
             ch.end_trial();
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::all_finite;
+
+    #[test]
+    fn all_finite_agrees_with_is_finite() {
+        let special = [
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            -5e-324,
+            f64::MAX,
+            f64::MIN,
+            f64::NAN,
+            -f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::from_bits(0x7ff0_0000_0000_0001),
+            f64::from_bits(0xfff8_dead_beef_0000),
+        ];
+        // Every value alone and after a run of finite ones, and random bit patterns.
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut random = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            f64::from_bits(state)
+        };
+        let mut cases: Vec<Vec<f64>> = special.iter().map(|&x| vec![x]).collect();
+        cases.extend(special.iter().map(|&x| [vec![1.5; 37], vec![x]].concat()));
+        cases.extend((0..2000).map(|n| (0..n % 40).map(|_| random()).collect()));
+        cases.push(Vec::new());
+        for values in cases {
+            assert_eq!(
+                all_finite(&values),
+                values.iter().all(|x| x.is_finite()),
+                "{values:?}"
+            );
+        }
     }
 }
