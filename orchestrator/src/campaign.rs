@@ -894,7 +894,7 @@ pub fn run_campaign(
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
                 if let Some(warning) = replace_campaign(dir, |from, to| fs::rename(from, to))? {
-                    bar.suspend(|| eprintln!("warning: {warning}"));
+                    bar.suspend(|| crate::console!("warning: {warning}"));
                 }
                 crash.tick();
             }

@@ -3,6 +3,26 @@
 //! atomic persistence and resume, outputs and plots, and the paper study.
 #![deny(unsafe_code)]
 
+/// `eprintln!` that never panics: a console that went away (a pipe whose reader exited, a
+/// closed terminal) must not stop a campaign or turn a finished run's exit code into a
+/// panic's. What could not be printed is lost; the result files are not.
+#[macro_export]
+macro_rules! console {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// `print!` that never panics, for the text `info` and `analyze` write to stdout.
+#[macro_export]
+macro_rules! output {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 pub mod campaign;
 pub mod master;
 pub mod output;

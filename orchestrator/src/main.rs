@@ -20,7 +20,7 @@ fn main() -> ExitCode {
     // handler (if installing it fails) the next start reaps the folders instead.
     let _ = ctrlc::set_handler(|| {
         let removed = fmi2_import::remove_extraction_dirs();
-        eprintln!(
+        orchestrator::console!(
             "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign, `sweep --resume` a sweep"
         );
         std::process::exit(EXIT_INTERRUPTED);
@@ -36,7 +36,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", describe(&e));
+            orchestrator::console!("error: {}", describe(&e));
             ExitCode::FAILURE
         }
     }

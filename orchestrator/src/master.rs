@@ -572,7 +572,7 @@ impl<'s> Master<'s> {
         if self.logging {
             for inst in &self.instances {
                 for record in inst.take_log() {
-                    eprintln!("{}: {record}", inst.name());
+                    crate::console!("{}: {record}", inst.name());
                 }
             }
         }

@@ -626,7 +626,7 @@ impl Recorder {
 fn report_log(inst: &Instance, status: Status, verbose: bool) {
     if verbose || status >= Status::Warning {
         for record in inst.take_log() {
-            eprintln!("{}: {record}", inst.name());
+            crate::console!("{}: {record}", inst.name());
         }
     }
 }

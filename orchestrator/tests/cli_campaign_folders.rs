@@ -437,3 +437,29 @@ fn the_saved_scenario_reruns_and_resumes_from_the_output_folder() {
         "after resuming a campaign of an earlier version",
     );
 }
+
+/// A console that goes away (stdout and stderr into pipes whose reader has exited, as
+/// `run … 2>&1 | head -1` leaves them) neither stops the campaign nor turns its exit code
+/// into a panic's: the run finishes every trial and exits 0.
+#[test]
+fn a_closed_console_does_not_stop_a_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let whole = tmp.path().join("whole");
+    assert!(run(&s, &whole, &[]).status.success());
+    let out = tmp.path().join("out");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg("run")
+        .arg(&s)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    assert_same_tree(&whole, &out, "with a closed console");
+}

@@ -70,8 +70,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         &curves,
     )?;
     write_atomic(&out.join("summary.md"), |w| w.write_all(summary.as_bytes()))?;
-    print!("{summary}");
-    eprintln!("results in {}", out.display());
+    orchestrator::output!("{summary}");
+    orchestrator::console!("results in {}", out.display());
     Ok(())
 }
 

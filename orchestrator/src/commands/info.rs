@@ -18,7 +18,7 @@ use crate::args::InfoArgs;
 /// Runs `info`.
 pub fn run(args: InfoArgs) -> Result<()> {
     let fmu = super::simulate::open_fmu(&args.fmu)?;
-    print!("{}", describe(&fmu));
+    orchestrator::output!("{}", describe(&fmu));
     Ok(())
 }
 

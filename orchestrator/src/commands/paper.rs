@@ -24,7 +24,7 @@ pub fn run(args: PaperArgs) -> Result<()> {
     };
     let start = std::time::Instant::now();
     run_paper(&opts)?;
-    eprintln!(
+    orchestrator::console!(
         "paper study done in {:.1} s: {}",
         start.elapsed().as_secs_f64(),
         args.out.join("report.md").display()

@@ -37,18 +37,18 @@ pub fn run(args: RunArgs) -> Result<()> {
     let summaries = run_campaign(&scenario, &text, fmus, &opts)?;
     for s in &summaries {
         match s.legs {
-            Some(legs) => eprintln!(
+            Some(legs) => orchestrator::console!(
                 "trial {:3}: max |e| = {:.6} mm, RMS e = {:.6} mm",
                 s.trial,
                 legs.overall.max * 1e3,
                 legs.overall.rms * 1e3
             ),
-            None => eprintln!(
+            None => orchestrator::console!(
                 "trial {:3}: error not measured (the scenario has no [metrics])",
                 s.trial
             ),
         }
     }
-    eprintln!("results in {}", out_dir.display());
+    orchestrator::console!("results in {}", out_dir.display());
     Ok(())
 }

@@ -28,7 +28,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         .with_context(|| format!("simulation of {} failed", args.fmu.display()))?;
     let (recording, text, ended) = (sim.recording, sim.text, sim.ended);
     if let Some(notice) = ended {
-        eprintln!(
+        orchestrator::console!(
             "notice: {notice}; the simulation ends at t = {} s with {} rows",
             recording.time.last().copied().unwrap_or(f64::NAN),
             recording.len()

@@ -28,7 +28,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     if let Some(SweepAction::Merge(m)) = args.action {
         let spec = SweepSpec::load(&m.sweep)?;
         merge(&spec, &m.out, &m.shards)?;
-        eprintln!("merged {} shards into {}", m.shards.len(), m.out.display());
+        orchestrator::console!("merged {} shards into {}", m.shards.len(), m.out.display());
         return Ok(());
     }
     let file = args.sweep.context("a sweep file is required")?;
@@ -49,7 +49,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         progress: true,
     };
     let ran = run_sweep(&spec, &opts)?;
-    eprintln!(
+    orchestrator::console!(
         "{} of {} cases run now; results in {}",
         ran.len(),
         spec.cases.len(),

@@ -191,7 +191,7 @@ fn run_parallel<T: Send>(
                     }
                     let result = run(i, jobs == 1).map(|(r, what)| {
                         if opts.progress && jobs > 1 {
-                            eprintln!("done: {what}");
+                            crate::console!("done: {what}");
                         }
                         r
                     });

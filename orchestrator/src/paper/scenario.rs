@@ -204,7 +204,7 @@ pub(super) fn run_scenario(
             problems: e.messages(),
         })?;
     if opts.progress && show_progress {
-        eprintln!("{what}");
+        crate::console!("{what}");
     }
     Ok(run_campaign(
         &scenario,

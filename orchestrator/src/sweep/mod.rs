@@ -401,7 +401,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                     }
                     if opts.progress {
                         let count = done.fetch_add(1, Ordering::Relaxed) + 1;
-                        eprintln!(
+                        crate::console!(
                             "case {i} done, {count} of {} ({})",
                             mine.len(),
                             spec.case_labels(i).join(", ")
