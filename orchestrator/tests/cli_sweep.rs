@@ -262,6 +262,13 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
             "sweep.toml:9",
             "samples must be at least 1",
         ),
+        // Each axis within the limit, their product beyond it: the axis that passes it.
+        (
+            text.replace("samples = 2", "samples = 400000"),
+            "sweep.toml:9",
+            "axis 2: its 400000 values times the 3 cases of the axes before it make more \
+             than 1000000 cases",
+        ),
     ];
     for (i, (bad, at, what)) in cases.iter().enumerate() {
         let file = tmp.path().join(format!("bad{i}.toml"));

@@ -297,7 +297,7 @@ impl SweepSpec {
                     } else if let Some(f) = random {
                         if lens[a] != lens[factors[f][0]] {
                             return Err(err(
-                                0..0,
+                                raw.axes[a].span(),
                                 format!(
                                     "random axes are drawn together and need one `samples`; \
                                      {:?} has {} and {:?} has {}",
@@ -315,16 +315,23 @@ impl SweepSpec {
                     }
                 }
                 let sizes: Vec<usize> = factors.iter().map(|f| lens[f[0]]).collect();
-                let total = sizes
-                    .iter()
-                    .try_fold(1usize, |acc, &n| acc.checked_mul(n))
-                    .filter(|&n| n <= MAX_CASES)
-                    .ok_or_else(|| {
-                        err(
-                            0..0,
-                            format!("the axes {lens:?} make more than {MAX_CASES} cases"),
-                        )
-                    })?;
+                let mut total = 1usize;
+                for (f, &n) in factors.iter().zip(&sizes) {
+                    // The line of the axis that takes the product past the limit.
+                    total = total
+                        .checked_mul(n)
+                        .filter(|&t| t <= MAX_CASES)
+                        .ok_or_else(|| {
+                            err(
+                                raw.axes[f[0]].span(),
+                                format!(
+                                    "axis {}: its {n} values times the {total} cases of the axes \
+                                     before it make more than {MAX_CASES} cases",
+                                    f[0] + 1
+                                ),
+                            )
+                        })?;
+                }
                 (0..total)
                     .map(|mut c| {
                         let mut idx = vec![0; lens.len()];
