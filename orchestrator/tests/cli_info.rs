@@ -61,6 +61,7 @@ fn foreign_fmu_info_lists_identity_flags_and_every_variable() {
             "initial",
             "start",
             "unit",
+            "range",
             "description"
         ]
     );
@@ -143,6 +144,15 @@ fn ckcm_fmu_info_lists_their_interfaces() {
         );
     }
     assert_eq!(variable_line(&plant, "pose[4]")[6], "rad");
+    // The declared range follows the unit; outputs have none.
+    assert_eq!(
+        variable_line(&plant, "rod_mass")[6..10],
+        ["1", "kg", "[0,", "10000]"]
+    );
+    assert_eq!(
+        variable_line(&plant, "noise_seed")[6..9],
+        ["0", "[0,", "2147483647]"]
+    );
 
     let controller = info(&built_fmu("HlcsController"));
     assert!(controller.contains("Model            HlcsController"));

@@ -149,6 +149,7 @@ fn describe(fmu: &Fmu) -> String {
         "initial",
         "start",
         "unit",
+        "range",
         "description",
     ];
     let rows: Vec<Vec<String>> = md
@@ -252,8 +253,26 @@ fn variable_row(md: &ModelDescription, v: &ScalarVariable) -> Vec<String> {
         v.initial.map_or("", Initial::as_str).to_owned(),
         start.unwrap_or_default(),
         unit,
+        range(md, v),
         v.description.clone().unwrap_or_default(),
     ]
+}
+
+/// The declared bounds of a Real or Integer (`[0.01, 10]`, `≥ 0`, `≤ 5`), which values set
+/// by a master must respect; empty when unbounded. Enumerations show their items instead.
+fn range(md: &ModelDescription, v: &ScalarVariable) -> String {
+    if !matches!(
+        v.kind,
+        VariableKind::Real { .. } | VariableKind::Integer { .. }
+    ) {
+        return String::new();
+    }
+    match md.range_of(v) {
+        (Some(lo), Some(hi)) => format!("[{lo}, {hi}]"),
+        (Some(lo), None) => format!("≥ {lo}"),
+        (None, Some(hi)) => format!("≤ {hi}"),
+        (None, None) => String::new(),
+    }
 }
 
 /// `text` with control characters (from any string of the model description) escaped as
