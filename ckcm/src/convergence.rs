@@ -632,4 +632,25 @@ mod tests {
             );
         }
     }
+
+    /// docs/convergence.md §1: light modes exceed 1 from 125 / 104 / 90 Hz to Nyquist
+    /// without a lead, and nowhere with a lead of one sample.
+    #[test]
+    fn light_modes_diverge_at_high_frequency_unless_led() {
+        let paper = UpdateSettings::default();
+        let led = UpdateSettings {
+            lead: 1,
+            ..UpdateSettings::default()
+        };
+        for (mass, onset) in [(1.5, 125.0), (2.0, 104.0), (2.5, 90.0)] {
+            let l = mode(mass);
+            let grid = frequency_grid(1e-3, 0.1, 2000);
+            let bands = bands_above_one(&grid, |f| l.factor(&paper, f));
+            assert_eq!(bands.len(), 1, "{mass} kg: {bands:?}");
+            assert!((bands[0].0 - onset).abs() < 1.0, "{mass} kg: {bands:?}");
+            assert!(bands[0].1 > 499.0, "{mass} kg: up to Nyquist: {bands:?}");
+            let with_lead = bands_above_one(&grid, |f| l.factor(&led, f));
+            assert!(with_lead.is_empty(), "{mass} kg with δ = 1: {with_lead:?}");
+        }
+    }
 }

@@ -9,6 +9,7 @@
 //!
 //! [`codegen::codegen_rust`] emits the Rust constants an FMU crate's build script
 //! `include!`s, so the XML stays the single source of truth for value references.
+#![forbid(unsafe_code)]
 
 pub mod codegen;
 mod datetime;

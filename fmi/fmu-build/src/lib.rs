@@ -16,6 +16,7 @@
 //! The manifests are read with `toml` rather than through `cargo metadata`: a build script
 //! must not run cargo (it would wait on the build's own lock), and one reader for both
 //! sides keeps them from disagreeing. The workspace lists its members by path (no globs).
+#![forbid(unsafe_code)]
 
 use std::path::{Path, PathBuf};
 
