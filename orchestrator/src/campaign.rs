@@ -529,7 +529,7 @@ impl CrashPoint {
 }
 
 /// Whether `name` is a temporary file of [`write_atomic`] (`.<name>.tmp-<pid>-<n>`).
-fn is_temporary(name: &str) -> bool {
+pub(crate) fn is_temporary(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
 

@@ -239,6 +239,25 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
     for ((name, want), (_, have)) in results(&plain).iter().zip(results(&out).iter()) {
         assert!(want == have, "{name} differs after resume");
     }
+    // Killed while writing its first file, a sweep leaves only a temporary stamp: the
+    // resume that a requeued cluster task runs (examples/slurm) starts it afresh.
+    let early = tmp.path().join("early");
+    fs::create_dir(&early).unwrap();
+    fs::write(early.join(".sweep.toml.tmp-999999-0"), b"torn").unwrap();
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&early)
+        .arg("--resume")
+        .assert()
+        .success();
+    for ((name, want), (_, have)) in results(&plain).iter().zip(results(&early).iter()) {
+        assert!(
+            want == have,
+            "{name} differs after a resume of a torn start"
+        );
+    }
 }
 
 #[test]

@@ -321,9 +321,14 @@ fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
     write_atomic(path, |w| w.write_all(text.as_bytes()))
 }
 
-/// Whether `dir` exists and holds anything: a sweep's output folder must not, unless resumed.
+/// Whether `dir` exists and holds anything but temporary files of an interrupted write: a
+/// sweep's output folder must not, unless resumed. A run killed while writing its first file
+/// (the stamp) leaves only such a temporary, and must start again rather than be refused.
 fn holds_files(dir: &Path) -> bool {
-    fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some())
+    fs::read_dir(dir).is_ok_and(|d| {
+        d.filter_map(Result::ok)
+            .any(|e| !crate::campaign::is_temporary(&e.file_name().to_string_lossy()))
+    })
 }
 
 /// Whether a case ended (completed or failed) in an earlier run.
@@ -366,11 +371,16 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let base = BaseFmus::open(spec)?;
     let plans = plan(spec, &base, out)?;
-    fs::create_dir_all(out.join("cases")).map_err(|e| SweepError::Dir {
-        dir: out.clone(),
-        message: e.to_string(),
-    })?;
+    // The stamp first: a folder that holds anything else then always says which sweep it is.
+    let create = |dir: PathBuf| {
+        fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
+            dir: out.clone(),
+            message: e.to_string(),
+        })
+    };
+    create(out.clone())?;
     write_text(&stamp, &spec.text)?;
+    create(out.join("cases"))?;
     let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
         .collect();
