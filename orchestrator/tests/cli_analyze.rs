@@ -174,8 +174,8 @@ fn bad_settings_are_named_and_nothing_is_written() {
         // Five billion poses on the 5 s circle: refused before any is sampled.
         (
             &["--stride", "1e-9"][..],
-            "--stride = 0.000000001 s samples more than 1e6 poses along the 5 s reference; \
-             use at least 5e-6 s",
+            "--stride = 0.000000001 s samples more than 1e5 poses along the 5 s reference; \
+             use at least 5e-5 s",
         ),
     ] {
         let o = analyze(&scenario, &out, extra);
