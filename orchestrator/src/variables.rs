@@ -132,6 +132,16 @@ fn integral(x: f64) -> Option<i32> {
     ok.then_some(x as i32)
 }
 
+/// `literal` read as a number (text as written, a TOML integer or float), whatever its type.
+fn as_number(literal: Literal<'_>) -> Option<f64> {
+    match literal {
+        Literal::Text(t) => t.trim().parse::<f64>().ok(),
+        Literal::Toml(toml::Value::Float(x)) => Some(*x),
+        Literal::Toml(toml::Value::Integer(i)) => Some(*i as f64),
+        Literal::Toml(_) => None,
+    }
+}
+
 /// Converts `literal` to `var`'s type: a finite number for Real; an integral number for
 /// Integer; true/false (on the command line also 1/0) for Boolean; an item name or value for
 /// Enumeration; any text for String. Errors say what was written and what `var` takes.
@@ -143,15 +153,10 @@ pub fn convert(
     use toml::Value as T;
     let name = &var.name;
     match &var.kind {
-        VariableKind::Real { .. } => match literal {
-            Literal::Text(t) => t.trim().parse::<f64>().ok(),
-            Literal::Toml(T::Float(x)) => Some(*x),
-            Literal::Toml(T::Integer(i)) => Some(*i as f64),
-            Literal::Toml(_) => None,
-        }
-        .filter(|x| x.is_finite())
-        .map(Value::Real)
-        .ok_or_else(|| format!("'{literal}' is not a finite number ('{name}' is a Real)")),
+        VariableKind::Real { .. } => as_number(literal)
+            .filter(|x| x.is_finite())
+            .map(Value::Real)
+            .ok_or_else(|| format!("'{literal}' is not a finite number ('{name}' is a Real)")),
         VariableKind::Integer { .. } => match literal {
             Literal::Text(t) => parse_integer(t.trim()),
             Literal::Toml(T::Integer(i)) => i32::try_from(*i).ok(),
@@ -160,13 +165,7 @@ pub fn convert(
         }
         .map(Value::Integer)
         .ok_or_else(|| {
-            let whole = match literal {
-                Literal::Text(t) => t.trim().parse::<f64>().ok(),
-                Literal::Toml(T::Integer(i)) => Some(*i as f64),
-                Literal::Toml(T::Float(x)) => Some(*x),
-                Literal::Toml(_) => None,
-            }
-            .is_some_and(|x| x.is_finite() && x.fract() == 0.0);
+            let whole = as_number(literal).is_some_and(|x| x.is_finite() && x.fract() == 0.0);
             if whole {
                 format!(
                     "'{literal}' is out of range: '{name}' is an Integer, from {} to {}",
