@@ -16,6 +16,7 @@ mod datetime;
 mod error;
 mod parse;
 mod raw;
+mod schema;
 mod validate;
 
 use std::path::Path;
@@ -93,6 +94,9 @@ pub struct ModelDescription {
     pub model_variables: Vec<ScalarVariable>,
     /// The `<ModelStructure>` element's content.
     pub model_structure: ModelStructure,
+    /// Elements the schema does not allow where they stand, found by the parse (which
+    /// skips them) and reported by `validate`.
+    nesting: Vec<Problem>,
 }
 
 /// `variableNamingConvention`.

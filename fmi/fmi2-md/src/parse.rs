@@ -13,6 +13,7 @@ use quick_xml::events::Event;
 
 use super::error::{MdError, MdErrorKind, ParseEnumError};
 use super::raw::*;
+use super::schema::{self, Content};
 use super::*;
 
 /// Byte offsets of element starts, keyed by `parent/name`, in document order.
@@ -71,12 +72,26 @@ impl<'a> Positions<'a> {
     }
 }
 
-/// Checks well-formedness and records element positions.
-fn scan(xml: &str) -> Result<(String, Positions<'_>), MdError> {
+/// At most this many elements out of the schema's place are reported one by one; a
+/// generated file with thousands would otherwise bury the first under the rest.
+const NESTING_REPORTED: usize = 100;
+
+/// What the streaming pass finds: the root's name, where elements start, and the elements
+/// the schema does not allow where they stand.
+struct Scan<'a> {
+    root: String,
+    positions: Positions<'a>,
+    nesting: Vec<Problem>,
+}
+
+/// Checks well-formedness, records element positions and checks the schema's nesting.
+fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
     let mut reader = Reader::from_str(xml);
     let mut positions = Positions::new(xml);
-    let mut stack: Vec<(String, usize)> = Vec::new();
+    let mut stack: Vec<(String, usize, Content)> = Vec::new();
     let mut root: Option<String> = None;
+    let mut nesting = Vec::new();
+    let mut unreported = 0usize;
     loop {
         let before = usize::try_from(reader.buffer_position()).unwrap_or(usize::MAX);
         let event = match reader.read_event() {
@@ -97,7 +112,34 @@ fn scan(xml: &str) -> Result<(String, Positions<'_>), MdError> {
                         MdErrorKind::Xml(format!("second root element <{name}>")),
                     ));
                 }
-                let parent = stack.last().map_or("", |(p, _)| p.as_str());
+                let (parent, held) = stack
+                    .last()
+                    .map_or(("", Content::Document), |(p, _, c)| (p.as_str(), *c));
+                let content = match schema::child(held, &name) {
+                    Ok(content) => content,
+                    Err(allowed) => {
+                        if nesting.len() < NESTING_REPORTED {
+                            let message = if allowed.is_empty() {
+                                format!(
+                                    "<{name}> is not allowed here: <{parent}> holds no elements"
+                                )
+                            } else {
+                                format!(
+                                    "<{name}> is not allowed here (the FMI 2.0 schema allows <{}>)",
+                                    allowed.join(">, <")
+                                )
+                            };
+                            nesting.push(Problem {
+                                line: Some(positions.line_at(before)),
+                                element: parent.to_owned(),
+                                message,
+                            });
+                        } else {
+                            unreported += 1;
+                        }
+                        Content::Refused
+                    }
+                };
                 positions
                     .starts
                     .entry(format!("{parent}/{name}"))
@@ -105,7 +147,7 @@ fn scan(xml: &str) -> Result<(String, Positions<'_>), MdError> {
                     .push(before);
                 root.get_or_insert_with(|| name.clone());
                 if matches!(event, Event::Start(_)) {
-                    stack.push((name, before));
+                    stack.push((name, before, content));
                 }
             }
             Event::End(_) => {
@@ -115,14 +157,25 @@ fn scan(xml: &str) -> Result<(String, Positions<'_>), MdError> {
             _ => {}
         }
     }
-    if let Some((name, at)) = stack.last() {
+    if let Some((name, at, _)) = stack.last() {
         return Err(MdError::new(
             Some(positions.line_at(*at)),
             MdErrorKind::Xml(format!("<{name}> is not closed before the end of the file")),
         ));
     }
+    if unreported > 0 {
+        nesting.push(Problem {
+            line: None,
+            element: "fmiModelDescription".into(),
+            message: format!("{unreported} more elements out of the schema's place"),
+        });
+    }
     match root {
-        Some(root) => Ok((root, positions)),
+        Some(root) => Ok(Scan {
+            root,
+            positions,
+            nesting,
+        }),
         None => Err(MdError::new(
             None,
             MdErrorKind::Xml("no root element".into()),
@@ -244,17 +297,25 @@ impl Ctx<'_, '_> {
 }
 
 pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
-    let (root, pos) = scan(xml)?;
+    let Scan {
+        root,
+        positions: pos,
+        nesting,
+    } = scan(xml)?;
     if root != "fmiModelDescription" {
         let line = pos.line(&format!("/{root}"), 0);
         return Err(MdError::new(line, MdErrorKind::WrongRoot(root)));
     }
     let raw: RawModelDescription = quick_xml::de::from_str(xml)
         .map_err(|e| MdError::new(None, MdErrorKind::Xml(e.to_string())))?;
-    convert(raw, &pos)
+    convert(raw, &pos, nesting)
 }
 
-fn convert(raw: RawModelDescription, pos: &Positions<'_>) -> Result<ModelDescription, MdError> {
+fn convert(
+    raw: RawModelDescription,
+    pos: &Positions<'_>,
+    nesting: Vec<Problem>,
+) -> Result<ModelDescription, MdError> {
     let root = Ctx {
         pos,
         label: "fmiModelDescription".into(),
@@ -390,6 +451,7 @@ fn convert(raw: RawModelDescription, pos: &Positions<'_>) -> Result<ModelDescrip
         default_experiment,
         model_variables,
         model_structure,
+        nesting,
     })
 }
 

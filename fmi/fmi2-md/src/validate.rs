@@ -28,7 +28,7 @@ impl Report {
 }
 
 pub(super) fn validate(md: &ModelDescription) -> Vec<Problem> {
-    let mut r = Report(Vec::new());
+    let mut r = Report(md.nesting.clone());
     check_header(md, &mut r);
     check_definitions(md, &mut r);
     check_uniqueness(md, &mut r);

@@ -343,3 +343,51 @@ fn several_problems_are_all_listed() {
     find(&p, &["'force[3]'", "input has no start value"]);
     find(&p, &["stepSize must be > 0, is -1"]);
 }
+
+#[test]
+fn elements_out_of_the_schemas_place() {
+    let p = problems(&[
+        (
+            "    <!-- index 1 -->\n",
+            "    <Foo><Bar/></Foo>\n    <!-- index 1 -->\n",
+        ),
+        (
+            "<Real declaredType=\"Force\" start=\"0\"/>",
+            "<Real declaredType=\"Force\" start=\"0\"><Real/></Real>",
+        ),
+        (
+            "<DefaultExperiment",
+            "<VendorAnnotations><Tool name=\"t\"><Anything><Deeper/></Anything></Tool></VendorAnnotations>\n  <DefaultExperiment",
+        ),
+    ]);
+    assert_eq!(
+        p.len(),
+        2,
+        "the <Tool>'s free content and <Bar> inside <Foo> are not reported: {p:#?}"
+    );
+    let foo = find(
+        &p,
+        &[
+            "ModelVariables",
+            "<Foo> is not allowed here",
+            "allows <ScalarVariable>",
+        ],
+    );
+    assert_eq!(foo.line, Some(45));
+    let real = find(
+        &p,
+        &["<Real> is not allowed here: <Real> holds no elements"],
+    );
+    assert_eq!(real.line, Some(48));
+}
+
+#[test]
+fn a_flood_of_misplaced_elements_is_summarised() {
+    let flood = "<Foo/>".repeat(150);
+    let p = problems(&[(
+        "  <ModelVariables>\n",
+        &format!("  <ModelVariables>{flood}\n"),
+    )]);
+    assert_eq!(p.len(), 101, "{p:#?}");
+    find(&p, &["50 more elements out of the schema's place"]);
+}
