@@ -587,10 +587,12 @@ const CAMPAIGN_NAMES: [&str; 6] = [
 /// `--force`. They are first moved aside into [`REPLACED_DIR`] with `rename`; when a move
 /// fails, the ones already moved go back and the old campaign stays as it was. Only then are
 /// they removed: a removal that fails leaves them aside, named in the returned warning, and
-/// the new campaign goes on.
+/// the new campaign goes on. `rename` and `remove_all` are `fs::rename` and
+/// `fs::remove_dir_all` outside the tests, which make them fail.
 fn replace_campaign(
     dir: &Path,
     mut rename: impl FnMut(&Path, &Path) -> std::io::Result<()>,
+    remove_all: impl FnOnce(&Path) -> std::io::Result<()>,
 ) -> Result<Option<String>, CampaignError> {
     let aside = dir.join(REPLACED_DIR);
     // A run killed while replacing an earlier campaign leaves this folder; it was meant to go.
@@ -619,7 +621,7 @@ fn replace_campaign(
         }
     }
     remove_leftovers(dir, 0)?;
-    Ok(fs::remove_dir_all(&aside)
+    Ok(remove_all(&aside)
         .err()
         .filter(|e| e.kind() != std::io::ErrorKind::NotFound)
         .map(|e| {
@@ -893,7 +895,11 @@ pub fn run_campaign(
             };
             if k == first && !resuming {
                 // A new campaign replaces an old one only now that its first trial succeeded.
-                if let Some(warning) = replace_campaign(dir, |from, to| fs::rename(from, to))? {
+                if let Some(warning) = replace_campaign(
+                    dir,
+                    |from, to| fs::rename(from, to),
+                    |aside| fs::remove_dir_all(aside),
+                )? {
                     bar.suspend(|| crate::console!("warning: {warning}"));
                 }
                 crash.tick();
@@ -1168,7 +1174,12 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         old_campaign(tmp.path());
         // A half-replaced campaign of a killed run is removed too.
         fs::create_dir_all(tmp.path().join(".replaced/trials")).unwrap();
-        let warning = replace_campaign(tmp.path(), |a, b| fs::rename(a, b)).unwrap();
+        let warning = replace_campaign(
+            tmp.path(),
+            |a, b| fs::rename(a, b),
+            |p| fs::remove_dir_all(p),
+        )
+        .unwrap();
         assert_eq!(warning, None);
         assert_eq!(listing(tmp.path()), ["notes.txt=mine"]);
     }
@@ -1182,14 +1193,18 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
             old_campaign(tmp.path());
             let before = listing(tmp.path());
             let mut calls = 0;
-            let err = replace_campaign(tmp.path(), |a, b| {
-                calls += 1;
-                if calls == fail_at + 1 {
-                    Err(std::io::Error::other("refused by the test"))
-                } else {
-                    fs::rename(a, b)
-                }
-            })
+            let err = replace_campaign(
+                tmp.path(),
+                |a, b| {
+                    calls += 1;
+                    if calls == fail_at + 1 {
+                        Err(std::io::Error::other("refused by the test"))
+                    } else {
+                        fs::rename(a, b)
+                    }
+                },
+                |p| fs::remove_dir_all(p),
+            )
             .unwrap_err();
             let text = err.to_string();
             assert!(text.contains("refused by the test"), "{text}");
@@ -1204,5 +1219,40 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
             assert!(text.contains(names[fail_at]), "{text}");
             assert_eq!(listing(tmp.path()), before, "failing move {fail_at}");
         }
+    }
+
+    /// A removal that fails after every move worked loses nothing: the old campaign waits
+    /// whole in `.replaced/` (the torn temporary of an interrupted write aside, which goes
+    /// as on every start), the warning names that folder and the cause, and the campaign's
+    /// names are free for the new run.
+    #[test]
+    fn a_failed_removal_warns_and_keeps_the_old_campaign_aside() {
+        let tmp = tempfile::tempdir().unwrap();
+        old_campaign(tmp.path());
+        let before = listing(tmp.path());
+        let warning = replace_campaign(
+            tmp.path(),
+            |a, b| fs::rename(a, b),
+            |_| Err(std::io::Error::other("refused by the test")),
+        )
+        .unwrap()
+        .expect("a warning");
+        assert!(warning.contains(".replaced"), "{warning}");
+        assert!(warning.contains("refused by the test"), "{warning}");
+        assert!(warning.contains("remove that folder by hand"), "{warning}");
+        let aside: Vec<String> = before
+            .iter()
+            .filter(|entry| !entry.starts_with(".summary.csv.tmp-"))
+            .map(|entry| {
+                if entry.starts_with("notes.txt") {
+                    entry.clone()
+                } else {
+                    format!(".replaced/{entry}")
+                }
+            })
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        assert_eq!(listing(tmp.path()), aside);
     }
 }
