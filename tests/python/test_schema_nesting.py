@@ -9,7 +9,6 @@ built by `cargo xtask fmu`) and repacks it; `orchestrator info` opens an FMU ful
 
 from __future__ import annotations
 
-import re
 import subprocess
 import zipfile
 from pathlib import Path
@@ -17,93 +16,138 @@ from pathlib import Path
 import pytest
 from fmpy.validation import validate_fmu
 
-#: (case, text to find in the description, its replacement, the misplaced element whose
-#: line fmpy and we must both name, or None when both must accept).
+#: (case, edits (text to find in the description, its replacement), the element whose line
+#: fmpy and we must both name with our message's words, or None when both must accept).
 CASES = [
     (
         "unknown element among the variables",
-        "    <!-- 1 -->\n",
-        "    <Foo/>\n    <!-- 1 -->\n",
-        "<Foo>",
+        [("    <!-- 1 -->\n", "    <Foo/>\n    <!-- 1 -->\n")],
+        ("<Foo", "<Foo> is not allowed here"),
     ),
     (
         "child in a variable's type element",
-        '<Real unit="N" start="0"/>',
-        '<Real unit="N" start="0"><Real/></Real>',
-        "<Real>",
+        [('<Real unit="N" start="0"/>', '<Real unit="N" start="0"><Real/></Real>')],
+        ("<Real/>", "<Real> is not allowed here"),
     ),
     (
         "child in DefaultExperiment",
-        'stepSize="0.0078125"/>',
-        'stepSize="0.0078125"><Tolerance/></DefaultExperiment>',
-        "<Tolerance>",
+        [('stepSize="0.0078125"/>', 'stepSize="0.0078125"><Tolerance/></DefaultExperiment>')],
+        ("<Tolerance", "<Tolerance> is not allowed here"),
     ),
     (
         "FMI 3 style Annotations at the root",
-        "  <ModelVariables>\n",
-        '  <Annotations><Tool name="t"/></Annotations>\n  <ModelVariables>\n',
-        "<Annotations>",
+        [("  <ModelVariables>\n", '  <Annotations><Tool name="t"/></Annotations>\n  <ModelVariables>\n')],
+        ("<Annotations", "<Annotations> is not allowed here"),
+    ),
+    (
+        "DefaultExperiment before LogCategories",
+        [
+            ('  <DefaultExperiment startTime="0" stopTime="2" stepSize="0.0078125"/>\n', ""),
+            (
+                "  <LogCategories>\n",
+                '  <DefaultExperiment stopTime="2"/>\n  <LogCategories>\n',
+            ),
+        ],
+        ("<LogCategories>", "<LogCategories> is out of order"),
+    ),
+    (
+        "a second DefaultExperiment",
+        [("  <ModelVariables>\n", '  <DefaultExperiment stopTime="3"/>\n  <ModelVariables>\n')],
+        ('stopTime="3"', "<DefaultExperiment> is one too many"),
+    ),
+    (
+        "Annotations before the variable's type element",
+        [('<Real unit="N" start="0"/>', '<Annotations><Tool name="t"/></Annotations><Real unit="N" start="0"/>')],
+        ("<Annotations>", "<Annotations> is not allowed here"),
+    ),
+    (
+        "a type element too many",
+        [('<Real unit="N" start="0"/>\n', '<Real unit="N" start="0"/>\n      <Integer/>\n')],
+        ("<Integer/>", "needs exactly one of"),
+    ),
+    (
+        "LogCategories without a category",
+        [
+            (
+                "".join(
+                    f'    <Category name="{name}" description="{text}"/>\n'
+                    for name, text in [
+                        ("logEvents", "Lifecycle calls"),
+                        ("logStatusWarning", "Calls that return fmi2Warning"),
+                        ("logStatusDiscard", "Calls that return fmi2Discard"),
+                        ("logStatusError", "Calls that return fmi2Error"),
+                        ("logStatusFatal", "Calls that return fmi2Fatal"),
+                    ]
+                ),
+                "",
+            )
+        ],
+        ("<LogCategories>", "LogCategories: misses <Category>"),
     ),
     (
         "free content in a vendor annotation",
-        "  <ModelVariables>\n",
-        '  <VendorAnnotations><Tool name="t"><Any><Deeper x="1"/></Any></Tool>'
-        "</VendorAnnotations>\n  <ModelVariables>\n",
+        [
+            (
+                "  <ModelVariables>\n",
+                '  <VendorAnnotations><Tool name="t"><Any><Deeper x="1"/><More/></Any></Tool>'
+                "</VendorAnnotations>\n  <ModelVariables>\n",
+            )
+        ],
         None,
     ),
 ]
 
 
-def repack(source: Path, target: Path, edit: tuple[str, str]) -> str:
-    """Copies the FMU with one edit to its model description; returns the edited text."""
+def repack(source: Path, target: Path, edits: list[tuple[str, str]]) -> str:
+    """Copies the FMU with edits to its model description; returns the edited text."""
     with zipfile.ZipFile(source) as zin, zipfile.ZipFile(target, "w") as zout:
         for item in zin.infolist():
             data = zin.read(item.filename)
             if item.filename == "modelDescription.xml":
                 text = data.decode()
-                assert text.count(edit[0]) >= 1, f"fixture lacks {edit[0]!r}"
-                text = text.replace(edit[0], edit[1], 1)
+                for find, replace in edits:
+                    assert find in text, f"fixture lacks {find!r}"
+                    text = text.replace(find, replace, 1)
                 data = text.encode()
                 edited = text
             zout.writestr(item, data)
     return edited
 
 
-@pytest.mark.parametrize("case,find,replace,element", CASES, ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("case,edits,expected", CASES, ids=[c[0] for c in CASES])
 def test_fmpy_and_the_importer_agree(
     tmp_path: Path,
     fmu_dir: Path,
     orchestrator: Path,
     case: str,
-    find: str,
-    replace: str,
-    element: str | None,
+    edits: list[tuple[str, str]],
+    expected: tuple[str, str] | None,
 ) -> None:
     source = fmu_dir / "ForeignOscillator.fmu"
     assert source.is_file(), f"{source} missing: run `cargo xtask fmu`"
     fmu = tmp_path / "edited.fmu"
-    text = repack(source, fmu, (find, replace))
+    text = repack(source, fmu, edits)
 
     fmpy_problems = validate_fmu(str(fmu))
     ours = subprocess.run(
         [str(orchestrator), "info", str(fmu)], capture_output=True, text=True, timeout=60
     )
-    if element is None:
+    if expected is None:
         assert fmpy_problems == [], f"{case}: fmpy refused {fmpy_problems}"
         assert ours.returncode == 0, f"{case}: we refused:\n{ours.stderr}"
         return
 
-    # The line of the misplaced element's start tag, from the edited text itself.
-    tag = element.strip("<>")
-    line = next(
-        i
-        for i, row in enumerate(text.splitlines(), 1)
-        if re.search(rf"<{tag}[ />]", row) and (tag != "Real" or "<Real/>" in row)
-    )
-    assert any(f"line {line}" in p for p in fmpy_problems), (
+    marker, words = expected
+    line = next(i for i, row in enumerate(text.splitlines(), 1) if marker in row)
+    assert any(f"line {line}," in p for p in fmpy_problems), (
         f"{case}: fmpy did not name line {line}: {fmpy_problems}"
     )
+    if words == "needs exactly one of":
+        # The typed reading refuses the variable itself, naming it, at its start tag.
+        line = next(i for i in range(line, 0, -1) if "<ScalarVariable" in text.splitlines()[i - 1])
     assert ours.returncode != 0, f"{case}: we accepted it:\n{ours.stdout}"
-    assert f"line {line}: " in ours.stderr and f"{element} is not allowed here" in ours.stderr, (
-        f"{case}: expected line {line} and {element} in:\n{ours.stderr}"
+    # Validation problems read "line N: ...", a description the parse refuses "file:N: ...".
+    named = f"line {line}: " in ours.stderr or f"modelDescription.xml:{line}: " in ours.stderr
+    assert named and words in ours.stderr, (
+        f"{case}: expected line {line} and {words!r} in:\n{ours.stderr}"
     )

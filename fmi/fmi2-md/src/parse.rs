@@ -13,7 +13,7 @@ use quick_xml::events::Event;
 
 use super::error::{MdError, MdErrorKind, ParseEnumError};
 use super::raw::*;
-use super::schema::{self, Content};
+use super::schema::{Content, Place};
 use super::*;
 
 /// Byte offsets of element starts, keyed by `parent/name`, in document order.
@@ -88,7 +88,8 @@ struct Scan<'a> {
 fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
     let mut reader = Reader::from_str(xml);
     let mut positions = Positions::new(xml);
-    let mut stack: Vec<(String, usize, Content)> = Vec::new();
+    let mut stack: Vec<(String, usize, Place)> = Vec::new();
+    let mut document = Place::new(Content::Document);
     let mut root: Option<String> = None;
     let mut nesting = Vec::new();
     let mut unreported = 0usize;
@@ -112,46 +113,52 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         MdErrorKind::Xml(format!("second root element <{name}>")),
                     ));
                 }
-                let (parent, held) = stack
-                    .last()
-                    .map_or(("", Content::Document), |(p, _, c)| (p.as_str(), *c));
-                let content = match schema::child(held, &name) {
-                    Ok(content) => content,
-                    Err(allowed) => {
-                        if nesting.len() < NESTING_REPORTED {
-                            let message = if allowed.is_empty() {
-                                format!(
-                                    "<{name}> is not allowed here: <{parent}> holds no elements"
-                                )
-                            } else {
-                                format!(
-                                    "<{name}> is not allowed here (the FMI 2.0 schema allows <{}>)",
-                                    allowed.join(">, <")
-                                )
-                            };
-                            nesting.push(Problem {
-                                line: Some(positions.line_at(before)),
-                                element: parent.to_owned(),
-                                message,
-                            });
-                        } else {
-                            unreported += 1;
-                        }
-                        Content::Refused
+                let mut report = |line: usize, element: &str, message: String| {
+                    if nesting.len() < NESTING_REPORTED {
+                        nesting.push(Problem {
+                            line: Some(line),
+                            element: element.to_owned(),
+                            message,
+                        });
+                    } else {
+                        unreported += 1;
                     }
                 };
+                let (parent, place) = match stack.last_mut() {
+                    Some((p, _, place)) => (p.as_str(), place),
+                    None => ("", &mut document),
+                };
+                let content = place.admit(&name).unwrap_or_else(|message| {
+                    report(positions.line_at(before), parent, message);
+                    Content::Refused
+                });
                 positions
                     .starts
                     .entry(format!("{parent}/{name}"))
                     .or_default()
                     .push(before);
                 root.get_or_insert_with(|| name.clone());
+                let place = Place::new(content);
                 if matches!(event, Event::Start(_)) {
-                    stack.push((name, before, content));
+                    stack.push((name, before, place));
+                } else if let Some(message) = place.missing_at_end() {
+                    report(positions.line_at(before), &name, message);
                 }
             }
             Event::End(_) => {
-                stack.pop();
+                if let Some((name, at, place)) = stack.pop() {
+                    if let Some(message) = place.missing_at_end() {
+                        if nesting.len() < NESTING_REPORTED {
+                            nesting.push(Problem {
+                                line: Some(positions.line_at(at)),
+                                element: name,
+                                message,
+                            });
+                        } else {
+                            unreported += 1;
+                        }
+                    }
+                }
             }
             Event::Eof => break,
             _ => {}
@@ -167,7 +174,7 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
         nesting.push(Problem {
             line: None,
             element: "fmiModelDescription".into(),
-            message: format!("{unreported} more elements out of the schema's place"),
+            message: format!("{unreported} more elements out of the schema's place or order"),
         });
     }
     match root {
@@ -306,8 +313,20 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
         let line = pos.line(&format!("/{root}"), 0);
         return Err(MdError::new(line, MdErrorKind::WrongRoot(root)));
     }
-    let raw: RawModelDescription = quick_xml::de::from_str(xml)
-        .map_err(|e| MdError::new(None, MdErrorKind::Xml(e.to_string())))?;
+    let raw: RawModelDescription = quick_xml::de::from_str(xml).map_err(|e| {
+        // serde's errors carry no position; an element out of the schema's place or order
+        // (a second <DefaultExperiment> is "duplicate field") is what they mean, with a line.
+        match nesting.first() {
+            Some(p) => MdError::new(
+                p.line,
+                MdErrorKind::InvalidElement {
+                    element: p.element.clone(),
+                    message: p.message.clone(),
+                },
+            ),
+            None => MdError::new(None, MdErrorKind::Xml(e.to_string())),
+        }
+    })?;
     convert(raw, &pos, nesting)
 }
 

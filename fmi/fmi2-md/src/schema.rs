@@ -1,15 +1,15 @@
 //! Which elements the FMI 2.0 schema (`fmiModelDescription.xsd` and the files it includes)
-//! allows inside which.
+//! allows inside which, in which order and how often.
 //!
-//! The typed parse reads the elements it knows and skips the rest, so without this table
-//! an element the schema forbids (`<Foo>` between two `<ScalarVariable>`s, a second level of
-//! `<Real>`) passed unnoticed although FMPy's schema validation refuses such a file. Only
-//! nesting is checked here: order and counts are the typed parse's and `validate`'s.
-//! A table rather than an XSD validator: the schema's nesting is these few rows, and the
-//! crates that validate against an XSD bind libxml2, a C library the FMU build and the
-//! Windows cross-build would then need.
+//! The typed parse reads the elements it knows in any order and skips the rest, so without
+//! this check an element the schema forbids (`<Foo>` among the `<ScalarVariable>`s, a
+//! `<LogCategories>` after `<DefaultExperiment>`) passed unnoticed although FMPy's schema
+//! validation refuses such a file. Attributes are the typed parse's and `validate`'s.
+//! A table rather than an XSD validator: the schema's content models are these few rows,
+//! and the crates that validate against an XSD bind libxml2, a C library the FMU build and
+//! the Windows cross-build would then need.
 
-/// The kind of content an element may hold, named by the element that holds it.
+/// The content model of an element, named by the element that holds it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Content {
     /// Before the root element: the root's name is checked by the parse itself.
@@ -24,106 +24,331 @@ pub(crate) enum Content {
     TypeEnumeration,
     LogCategories,
     Annotations,
+    /// A `<Tool>`: at most one element of any name (`xs:any`), whose content is free.
+    Tool,
     ModelVariables,
     ScalarVariable,
     ModelStructure,
     Unknowns,
     /// An element with attributes only.
     Empty,
-    /// A `<Tool>`'s content, which the schema leaves free (`xs:any`).
+    /// Inside a `<Tool>`'s element: anything.
     Free,
     /// Inside an element already reported: its content is not reported again.
     Refused,
 }
 
-/// (parent's content, child element, child's content): every nesting the schema allows.
-const ALLOWED: &[(Content, &str, Content)] = {
-    use Content::*;
-    &[
-        (Root, "ModelExchange", Implementation),
-        (Root, "CoSimulation", Implementation),
-        (Root, "UnitDefinitions", UnitDefinitions),
-        (Root, "TypeDefinitions", TypeDefinitions),
-        (Root, "LogCategories", LogCategories),
-        (Root, "DefaultExperiment", Empty),
-        (Root, "VendorAnnotations", Annotations),
-        (Root, "ModelVariables", ModelVariables),
-        (Root, "ModelStructure", ModelStructure),
-        (Implementation, "SourceFiles", SourceFiles),
-        (SourceFiles, "File", Empty),
-        (UnitDefinitions, "Unit", Unit),
-        (Unit, "BaseUnit", Empty),
-        (Unit, "DisplayUnit", Empty),
-        (TypeDefinitions, "SimpleType", SimpleType),
-        (SimpleType, "Real", Empty),
-        (SimpleType, "Integer", Empty),
-        (SimpleType, "Boolean", Empty),
-        (SimpleType, "String", Empty),
-        (SimpleType, "Enumeration", TypeEnumeration),
-        (TypeEnumeration, "Item", Empty),
-        (LogCategories, "Category", Empty),
-        (Annotations, "Tool", Free),
-        (ModelVariables, "ScalarVariable", ScalarVariable),
-        (ScalarVariable, "Real", Empty),
-        (ScalarVariable, "Integer", Empty),
-        (ScalarVariable, "Boolean", Empty),
-        (ScalarVariable, "String", Empty),
-        (ScalarVariable, "Enumeration", Empty),
-        (ScalarVariable, "Annotations", Annotations),
-        (ModelStructure, "Outputs", Unknowns),
-        (ModelStructure, "Derivatives", Unknowns),
-        (ModelStructure, "InitialUnknowns", Unknowns),
-        (Unknowns, "Unknown", Empty),
-    ]
-};
+/// One place in a content model: elements that may stand there (more than one for a
+/// choice), each with its own content, and how often the place may be filled.
+pub(crate) struct Slot {
+    names: &'static [(&'static str, Content)],
+    required: bool,
+    repeats: bool,
+}
 
-/// The content of `child` inside an element holding `parent`, or `Err` with the elements
-/// the schema allows there (empty when it allows none).
-pub(crate) fn child(parent: Content, child: &str) -> Result<Content, Vec<&'static str>> {
-    match parent {
-        Content::Document => return Ok(Content::Root),
-        Content::Free => return Ok(Content::Free),
-        Content::Refused => return Ok(Content::Refused),
-        _ => {}
+/// A [`Slot`] literal, which (unlike a `const fn`'s result) the compiler promotes to a
+/// static, so the content models below are tables without allocation.
+macro_rules! slot {
+    ($names:expr, $required:expr, $repeats:expr $(,)?) => {
+        Slot {
+            names: $names,
+            required: $required,
+            repeats: $repeats,
+        }
+    };
+}
+
+/// The content models, each a sequence of slots.
+fn model(content: Content) -> &'static [Slot] {
+    use Content::*;
+    const TYPES_OF_VARIABLE: &[(&str, Content)] = &[
+        ("Real", Empty),
+        ("Integer", Empty),
+        ("Boolean", Empty),
+        ("String", Empty),
+        ("Enumeration", Empty),
+    ];
+    match content {
+        // `<ModelExchange>` and `<CoSimulation>` in either order (the schema repeats their
+        // sequence twice); a second one of either is the typed parse's error.
+        Root => &[
+            slot!(
+                &[
+                    ("ModelExchange", Implementation),
+                    ("CoSimulation", Implementation)
+                ],
+                false,
+                true,
+            ),
+            slot!(&[("UnitDefinitions", UnitDefinitions)], false, false),
+            slot!(&[("TypeDefinitions", TypeDefinitions)], false, false),
+            slot!(&[("LogCategories", LogCategories)], false, false),
+            slot!(&[("DefaultExperiment", Empty)], false, false),
+            slot!(&[("VendorAnnotations", Annotations)], false, false),
+            slot!(&[("ModelVariables", ModelVariables)], true, false),
+            slot!(&[("ModelStructure", ModelStructure)], true, false),
+        ],
+        Implementation => &[slot!(&[("SourceFiles", SourceFiles)], false, false)],
+        SourceFiles => &[slot!(&[("File", Empty)], true, true)],
+        UnitDefinitions => &[slot!(&[("Unit", Unit)], true, true)],
+        Unit => &[
+            slot!(&[("BaseUnit", Empty)], false, false),
+            slot!(&[("DisplayUnit", Empty)], false, true),
+        ],
+        TypeDefinitions => &[slot!(&[("SimpleType", SimpleType)], true, true)],
+        SimpleType => &[slot!(
+            &[
+                ("Real", Empty),
+                ("Integer", Empty),
+                ("Boolean", Empty),
+                ("String", Empty),
+                ("Enumeration", TypeEnumeration),
+            ],
+            true,
+            false,
+        )],
+        TypeEnumeration => &[slot!(&[("Item", Empty)], true, true)],
+        LogCategories => &[slot!(&[("Category", Empty)], true, true)],
+        Annotations => &[slot!(&[("Tool", Tool)], true, true)],
+        ModelVariables => &[slot!(&[("ScalarVariable", ScalarVariable)], true, true)],
+        ScalarVariable => &[
+            slot!(TYPES_OF_VARIABLE, true, false),
+            slot!(&[("Annotations", Annotations)], false, false),
+        ],
+        ModelStructure => &[
+            slot!(&[("Outputs", Unknowns)], false, false),
+            slot!(&[("Derivatives", Unknowns)], false, false),
+            slot!(&[("InitialUnknowns", Unknowns)], false, false),
+        ],
+        Unknowns => &[slot!(&[("Unknown", Empty)], true, true)],
+        Document | Tool | Empty | Free | Refused => &[],
     }
-    ALLOWED
-        .iter()
-        .find(|(p, name, _)| *p == parent && *name == child)
-        .map(|&(_, _, content)| content)
-        .ok_or_else(|| {
-            ALLOWED
+}
+
+/// "<a>, <b> or <c>".
+fn names(slot: &Slot) -> String {
+    let all: Vec<String> = slot.names.iter().map(|(n, _)| format!("<{n}>")).collect();
+    match all.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => all.concat(),
+    }
+}
+
+/// Where an element stands in its parent's content model, child by child.
+pub(crate) struct Place {
+    pub content: Content,
+    /// The slot the last child filled, and how many children filled it.
+    slot: usize,
+    filled: usize,
+    /// Whether a `<Tool>`'s one element has been seen.
+    any_seen: bool,
+    /// Whether a child broke the content model. The rest of this element's children are
+    /// then not checked against it, as FMPy's schema validation (libxml2) reports one such
+    /// error per element: a misplaced element would otherwise put every later sibling out
+    /// of order too.
+    failed: bool,
+}
+
+impl Place {
+    pub fn new(content: Content) -> Self {
+        Self {
+            content,
+            slot: 0,
+            filled: 0,
+            any_seen: false,
+            failed: false,
+        }
+    }
+
+    /// Admits `child` here: its content, or why the schema does not allow it here (it is
+    /// then `Refused`, and the place stays as it was).
+    pub fn admit(&mut self, child: &str) -> Result<Content, String> {
+        let admitted = self.check(child);
+        if self.failed {
+            return Ok(admitted.unwrap_or(Content::Refused));
+        }
+        self.failed = admitted.is_err();
+        admitted
+    }
+
+    fn check(&mut self, child: &str) -> Result<Content, String> {
+        match self.content {
+            Content::Document => return Ok(Content::Root),
+            Content::Free => return Ok(Content::Free),
+            Content::Refused => return Ok(Content::Refused),
+            Content::Tool => {
+                if self.any_seen {
+                    return Err(format!(
+                        "<{child}> is not allowed here: a <Tool> holds at most one element"
+                    ));
+                }
+                self.any_seen = true;
+                return Ok(Content::Free);
+            }
+            _ => {}
+        }
+        let slots = model(self.content);
+        let found = slots.iter().enumerate().find_map(|(i, s)| {
+            s.names
                 .iter()
-                .filter(|(p, _, _)| *p == parent)
-                .map(|&(_, name, _)| name)
-                .collect()
-        })
+                .find(|(n, _)| *n == child)
+                .map(|&(_, c)| (i, c))
+        });
+        let Some((at, content)) = found else {
+            return Err(if slots.is_empty() {
+                format!("<{child}> is not allowed here: this element holds no elements")
+            } else {
+                let allowed: Vec<String> = slots.iter().map(names).collect();
+                format!(
+                    "<{child}> is not allowed here (the FMI 2.0 schema allows {})",
+                    allowed.join(", ")
+                )
+            });
+        };
+        if self.failed {
+            // Known, so its own content is still checked; its place here no longer is.
+            return Ok(content);
+        }
+        if at < self.slot {
+            return Err(format!(
+                "<{child}> is out of order: it must come before {}",
+                names(&slots[self.slot])
+            ));
+        }
+        if at == self.slot && self.filled > 0 && !slots[at].repeats {
+            return Err(if slots[at].names.len() > 1 {
+                format!(
+                    "<{child}> is one too many: only one of {} may stand here",
+                    names(&slots[at])
+                )
+            } else {
+                format!("<{child}> is one too many: only one may stand here")
+            });
+        }
+        if let Some(missing) = self.first_missing(at) {
+            return Err(format!(
+                "<{child}> is not allowed here: {} must come first",
+                names(missing)
+            ));
+        }
+        if at != self.slot {
+            self.slot = at;
+            self.filled = 0;
+        }
+        self.filled += 1;
+        Ok(content)
+    }
+
+    /// At the element's end: a required slot left empty, if any.
+    pub fn missing_at_end(&self) -> Option<String> {
+        if self.failed {
+            return None;
+        }
+        let slots = model(self.content);
+        self.first_missing(slots.len())
+            .map(|s| format!("misses {}", names(s)))
+    }
+
+    /// The first required slot before `upto` that no child filled.
+    fn first_missing(&self, upto: usize) -> Option<&'static Slot> {
+        let slots = model(self.content);
+        (self.slot..upto.min(slots.len()))
+            .find(|&i| slots[i].required && !(i == self.slot && self.filled > 0))
+            .map(|i| &slots[i])
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn admit_all(content: Content, children: &[&str]) -> Vec<Result<Content, String>> {
+        let mut place = Place::new(content);
+        children.iter().map(|c| place.admit(c)).collect()
+    }
+
     #[test]
-    fn nesting_follows_the_schema() {
+    fn nesting_order_and_counts_follow_the_schema() {
+        use Content::*;
         assert_eq!(
-            child(Content::Root, "ModelVariables"),
-            Ok(Content::ModelVariables)
+            admit_all(
+                Root,
+                &[
+                    "CoSimulation",
+                    "ModelExchange",
+                    "ModelVariables",
+                    "ModelStructure"
+                ]
+            ),
+            [
+                Ok(Implementation),
+                Ok(Implementation),
+                Ok(ModelVariables),
+                Ok(ModelStructure)
+            ]
         );
-        assert_eq!(
-            child(Content::ModelVariables, "Foo"),
-            Err(vec!["ScalarVariable"])
+        let r = admit_all(ModelVariables, &["ScalarVariable", "Foo"]);
+        assert_eq!(r[0], Ok(ScalarVariable));
+        assert!(
+            r[1].as_ref()
+                .unwrap_err()
+                .contains("allows <ScalarVariable>"),
+            "{r:?}"
         );
-        assert_eq!(child(Content::Empty, "Real"), Err(vec![]));
+        assert!(
+            admit_all(Empty, &["Real"])[0]
+                .as_ref()
+                .unwrap_err()
+                .contains("holds no elements")
+        );
         // A type's Enumeration lists items; a variable's holds attributes only.
         assert_eq!(
-            child(Content::SimpleType, "Enumeration"),
-            Ok(Content::TypeEnumeration)
+            admit_all(SimpleType, &["Enumeration"]),
+            [Ok(TypeEnumeration)]
         );
+        assert_eq!(admit_all(ScalarVariable, &["Enumeration"]), [Ok(Empty)]);
+        let r = admit_all(Root, &["DefaultExperiment", "LogCategories"]);
+        assert!(
+            r[1].as_ref()
+                .unwrap_err()
+                .contains("must come before <DefaultExperiment>"),
+            "{r:?}"
+        );
+        let r = admit_all(ScalarVariable, &["Real", "Integer"]);
+        assert!(r[1].as_ref().unwrap_err().contains("one too many"), "{r:?}");
+        let r = admit_all(ScalarVariable, &["Annotations"]);
+        assert!(
+            r[0].as_ref().unwrap_err().contains(
+                "<Real>, <Integer>, <Boolean>, <String> or <Enumeration> must come first"
+            ),
+            "{r:?}"
+        );
+        let r = admit_all(Root, &["ModelStructure"]);
+        assert!(
+            r[0].as_ref()
+                .unwrap_err()
+                .contains("<ModelVariables> must come first"),
+            "{r:?}"
+        );
+        assert_eq!(admit_all(Tool, &["Any"]), [Ok(Free)]);
+        assert!(admit_all(Tool, &["Any", "Other"])[1].is_err());
+        assert_eq!(admit_all(Free, &["A", "B"]), [Ok(Free), Ok(Free)]);
+        assert_eq!(admit_all(Refused, &["Inner"]), [Ok(Refused)]);
+    }
+
+    #[test]
+    fn required_content_is_missed_at_the_end() {
+        let mut place = Place::new(Content::Unit);
+        assert_eq!(place.missing_at_end(), None);
+        place = Place::new(Content::UnitDefinitions);
+        assert_eq!(place.missing_at_end().as_deref(), Some("misses <Unit>"));
+        place.admit("Unit").unwrap();
+        assert_eq!(place.missing_at_end(), None);
+        place = Place::new(Content::Root);
+        place.admit("ModelVariables").unwrap();
         assert_eq!(
-            child(Content::ScalarVariable, "Enumeration"),
-            Ok(Content::Empty)
+            place.missing_at_end().as_deref(),
+            Some("misses <ModelStructure>")
         );
-        assert_eq!(child(Content::Free, "Anything"), Ok(Content::Free));
-        assert_eq!(child(Content::Refused, "Inner"), Ok(Content::Refused));
     }
 }

@@ -356,8 +356,8 @@ fn elements_out_of_the_schemas_place() {
             "<Real declaredType=\"Force\" start=\"0\"><Real/></Real>",
         ),
         (
-            "<DefaultExperiment",
-            "<VendorAnnotations><Tool name=\"t\"><Anything><Deeper/></Anything></Tool></VendorAnnotations>\n  <DefaultExperiment",
+            "  <ModelVariables>\n",
+            "  <VendorAnnotations><Tool name=\"t\"><Anything><Deeper/></Anything></Tool></VendorAnnotations>\n  <ModelVariables>\n",
         ),
     ]);
     assert_eq!(
@@ -376,18 +376,90 @@ fn elements_out_of_the_schemas_place() {
     assert_eq!(foo.line, Some(45));
     let real = find(
         &p,
-        &["<Real> is not allowed here: <Real> holds no elements"],
+        &["Real: <Real> is not allowed here: this element holds no elements"],
     );
     assert_eq!(real.line, Some(48));
 }
 
 #[test]
 fn a_flood_of_misplaced_elements_is_summarised() {
-    let flood = "<Foo/>".repeat(150);
+    // 150 tools with two elements each, where the schema allows one.
+    let tools: String = (0..150)
+        .map(|k| format!("<Tool name=\"t{k}\"><A/><B/></Tool>"))
+        .collect();
     let p = problems(&[(
         "  <ModelVariables>\n",
-        &format!("  <ModelVariables>{flood}\n"),
+        &format!("  <VendorAnnotations>{tools}</VendorAnnotations>\n  <ModelVariables>\n"),
     )]);
     assert_eq!(p.len(), 101, "{p:#?}");
-    find(&p, &["50 more elements out of the schema's place"]);
+    find(&p, &["50 more elements out of the schema's place or order"]);
+}
+
+/// After the first element that breaks its parent's content model the parent's other
+/// children are not reported (as libxml2 reports one such error per element), but their
+/// own content still is.
+#[test]
+fn one_report_per_broken_parent() {
+    let p = problems(&[
+        (
+            "    <!-- index 1 -->\n",
+            "    <Foo/><Bar/>\n    <!-- index 1 -->\n",
+        ),
+        (
+            "<Real declaredType=\"Force\" start=\"0\"/>",
+            "<Real declaredType=\"Force\" start=\"0\"><Real/></Real>",
+        ),
+    ]);
+    assert_eq!(p.len(), 2, "{p:#?}");
+    find(&p, &["<Foo> is not allowed here"]);
+    find(&p, &["Real: <Real> is not allowed here"]);
+}
+
+#[test]
+fn order_and_counts_follow_the_schema() {
+    let p = problems(&[
+        (
+            "  <DefaultExperiment startTime=\"0\" stopTime=\"15\" stepSize=\"0.001\"/>\n",
+            "",
+        ),
+        (
+            "  <UnitDefinitions>\n",
+            "  <DefaultExperiment startTime=\"0\" stopTime=\"15\" stepSize=\"0.001\"/>\n  <UnitDefinitions>\n",
+        ),
+    ]);
+    assert_eq!(p.len(), 1, "{p:#?}");
+    let late = find(
+        &p,
+        &["<UnitDefinitions> is out of order: it must come before <DefaultExperiment>"],
+    );
+    assert_eq!(late.line, Some(19));
+
+    // A second <DefaultExperiment> fails the typed parse; the error is the schema's, with
+    // its line, not serde's "duplicate field" without one.
+    let twice = edited(&[(
+        "  <DefaultExperiment",
+        "  <DefaultExperiment/>\n  <DefaultExperiment",
+    )]);
+    let err = ModelDescription::parse(&twice).unwrap_err().to_string();
+    assert!(
+        err.contains("line 43") && err.contains("<DefaultExperiment> is one too many"),
+        "{err}"
+    );
+
+    let p = problems(&[(
+        "<UnitDefinitions>\n    <Unit name=\"N\">",
+        "<UnitDefinitions>\n    <Unit name=\"N\"><DisplayUnit name=\"kN\" factor=\"0.001\"/>",
+    )]);
+    find(
+        &p,
+        &[
+            "line 19",
+            "<BaseUnit> is out of order: it must come before <DisplayUnit>",
+        ],
+    );
+    let p = problems(&[(
+        "  <LogCategories>\n    <Category name=\"logStatusError\" description=\"errors\"/>\n    <Category name=\"logAll\"/>\n  </LogCategories>",
+        "  <LogCategories>\n  </LogCategories>",
+    )]);
+    find(&p, &["line 38", "LogCategories: misses <Category>"]);
 }
