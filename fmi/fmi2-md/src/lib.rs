@@ -94,8 +94,9 @@ pub struct ModelDescription {
     pub model_variables: Vec<ScalarVariable>,
     /// The `<ModelStructure>` element's content.
     pub model_structure: ModelStructure,
-    /// Elements the schema does not allow where they stand, found by the parse (which
-    /// skips them) and reported by `validate`.
+    /// Elements the schema's content models do not allow where, in which order or how
+    /// often they stand, or that miss a required child: found by the parse (which reads
+    /// what it knows in any order) and reported by `validate`.
     nesting: Vec<Problem>,
 }
 

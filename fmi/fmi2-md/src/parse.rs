@@ -72,27 +72,61 @@ impl<'a> Positions<'a> {
     }
 }
 
-/// At most this many elements out of the schema's place are reported one by one; a
-/// generated file with thousands would otherwise bury the first under the rest.
+/// At most this many schema problems are reported one by one; a generated file with
+/// thousands would otherwise bury the first under the rest.
 const NESTING_REPORTED: usize = 100;
 
 /// What the streaming pass finds: the root's name, where elements start, and the elements
-/// the schema does not allow where they stand.
+/// the schema's content models do not allow where, in which order or how often they stand.
 struct Scan<'a> {
     root: String,
     positions: Positions<'a>,
     nesting: Vec<Problem>,
 }
 
-/// Checks well-formedness, records element positions and checks the schema's nesting.
+/// The schema problems found so far: the first [`NESTING_REPORTED`], then a count.
+#[derive(Default)]
+struct Reports {
+    listed: Vec<Problem>,
+    unlisted: usize,
+}
+
+impl Reports {
+    fn push(&mut self, line: usize, element: &str, message: String) {
+        if self.listed.len() < NESTING_REPORTED {
+            self.listed.push(Problem {
+                line: Some(line),
+                element: element.to_owned(),
+                message,
+            });
+        } else {
+            self.unlisted += 1;
+        }
+    }
+
+    fn into_problems(mut self) -> Vec<Problem> {
+        if self.unlisted > 0 {
+            self.listed.push(Problem {
+                line: None,
+                element: "fmiModelDescription".into(),
+                message: format!(
+                    "{} more elements out of the schema's place or order",
+                    self.unlisted
+                ),
+            });
+        }
+        self.listed
+    }
+}
+
+/// Checks well-formedness, records element positions and checks the schema's content models.
 fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
     let mut reader = Reader::from_str(xml);
     let mut positions = Positions::new(xml);
     let mut stack: Vec<(String, usize, Place)> = Vec::new();
     let mut document = Place::new(Content::Document);
     let mut root: Option<String> = None;
-    let mut nesting = Vec::new();
-    let mut unreported = 0usize;
+    let mut reports = Reports::default();
     loop {
         let before = usize::try_from(reader.buffer_position()).unwrap_or(usize::MAX);
         let event = match reader.read_event() {
@@ -113,23 +147,12 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         MdErrorKind::Xml(format!("second root element <{name}>")),
                     ));
                 }
-                let mut report = |line: usize, element: &str, message: String| {
-                    if nesting.len() < NESTING_REPORTED {
-                        nesting.push(Problem {
-                            line: Some(line),
-                            element: element.to_owned(),
-                            message,
-                        });
-                    } else {
-                        unreported += 1;
-                    }
-                };
                 let (parent, place) = match stack.last_mut() {
                     Some((p, _, place)) => (p.as_str(), place),
                     None => ("", &mut document),
                 };
                 let content = place.admit(&name).unwrap_or_else(|message| {
-                    report(positions.line_at(before), parent, message);
+                    reports.push(positions.line_at(before), parent, message);
                     Content::Refused
                 });
                 positions
@@ -142,21 +165,13 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                 if matches!(event, Event::Start(_)) {
                     stack.push((name, before, place));
                 } else if let Some(message) = place.missing_at_end() {
-                    report(positions.line_at(before), &name, message);
+                    reports.push(positions.line_at(before), &name, message);
                 }
             }
             Event::End(_) => {
                 if let Some((name, at, place)) = stack.pop() {
                     if let Some(message) = place.missing_at_end() {
-                        if nesting.len() < NESTING_REPORTED {
-                            nesting.push(Problem {
-                                line: Some(positions.line_at(at)),
-                                element: name,
-                                message,
-                            });
-                        } else {
-                            unreported += 1;
-                        }
+                        reports.push(positions.line_at(at), &name, message);
                     }
                 }
             }
@@ -170,18 +185,11 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
             MdErrorKind::Xml(format!("<{name}> is not closed before the end of the file")),
         ));
     }
-    if unreported > 0 {
-        nesting.push(Problem {
-            line: None,
-            element: "fmiModelDescription".into(),
-            message: format!("{unreported} more elements out of the schema's place or order"),
-        });
-    }
     match root {
         Some(root) => Ok(Scan {
             root,
             positions,
-            nesting,
+            nesting: reports.into_problems(),
         }),
         None => Err(MdError::new(
             None,

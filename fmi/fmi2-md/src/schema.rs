@@ -4,7 +4,9 @@
 //! The typed parse reads the elements it knows in any order and skips the rest, so without
 //! this check an element the schema forbids (`<Foo>` among the `<ScalarVariable>`s, a
 //! `<LogCategories>` after `<DefaultExperiment>`) passed unnoticed although FMPy's schema
-//! validation refuses such a file. Attributes are the typed parse's and `validate`'s.
+//! validation refuses such a file. Attributes are not checked here: the typed parse reads
+//! the ones it knows, `validate` checks their values, and an attribute the schema does not
+//! define is ignored (FMPy's schema validation refuses it).
 //! A table rather than an XSD validator: the schema's content models are these few rows,
 //! and the crates that validate against an XSD bind libxml2, a C library the FMU build and
 //! the Windows cross-build would then need.
@@ -136,7 +138,7 @@ fn names(slot: &Slot) -> String {
 
 /// Where an element stands in its parent's content model, child by child.
 pub(crate) struct Place {
-    pub content: Content,
+    content: Content,
     /// The slot the last child filled, and how many children filled it.
     slot: usize,
     filled: usize,
