@@ -1,6 +1,7 @@
-"""Elements out of the FMI 2.0 schema's place: fmpy's validator (lxml against the schema)
-and the orchestrator's importer must agree on which descriptions they refuse and on the
-line, and both must accept a `<Tool>`'s free content.
+"""Elements and attributes out of the FMI 2.0 schema's place: fmpy's validator (lxml
+against the schema) and the orchestrator's importer must agree on which descriptions they
+refuse and on the line, and both must accept a `<Tool>`'s free content and the `xsi:`
+attributes every element may carry.
 
 Each case edits the model description of the foreign test FMU (`ForeignOscillator.fmu`,
 built by `cargo xtask fmu`) and repacks it; `orchestrator info` opens an FMU fully
@@ -16,28 +17,29 @@ from pathlib import Path
 import pytest
 from fmpy.validation import validate_fmu
 
-#: (case, edits (text to find in the description, its replacement), the element whose line
-#: fmpy and we must both name with our message's words, or None when both must accept).
+#: (case, edits (text to find in the description, its replacement), expected), where
+#: expected is None when both must accept, else (a text on the line fmpy must name, a text
+#: on the line we must name, words of our message). The lines differ only where noted.
 CASES = [
     (
         "unknown element among the variables",
         [("    <!-- 1 -->\n", "    <Foo/>\n    <!-- 1 -->\n")],
-        ("<Foo", "<Foo> is not allowed here"),
+        ("<Foo", "<Foo", "<Foo> is not allowed here"),
     ),
     (
         "child in a variable's type element",
         [('<Real unit="N" start="0"/>', '<Real unit="N" start="0"><Real/></Real>')],
-        ("<Real/>", "<Real> is not allowed here"),
+        ("<Real/>", "<Real/>", "<Real> is not allowed here"),
     ),
     (
         "child in DefaultExperiment",
         [('stepSize="0.0078125"/>', 'stepSize="0.0078125"><Tolerance/></DefaultExperiment>')],
-        ("<Tolerance", "<Tolerance> is not allowed here"),
+        ("<Tolerance", "<Tolerance", "<Tolerance> is not allowed here"),
     ),
     (
         "FMI 3 style Annotations at the root",
         [("  <ModelVariables>\n", '  <Annotations><Tool name="t"/></Annotations>\n  <ModelVariables>\n')],
-        ("<Annotations", "<Annotations> is not allowed here"),
+        ("<Annotations", "<Annotations", "<Annotations> is not allowed here"),
     ),
     (
         "DefaultExperiment before LogCategories",
@@ -48,22 +50,23 @@ CASES = [
                 '  <DefaultExperiment stopTime="2"/>\n  <LogCategories>\n',
             ),
         ],
-        ("<LogCategories>", "<LogCategories> is out of order"),
+        ("<LogCategories>", "<LogCategories>", "<LogCategories> is out of order"),
     ),
     (
         "a second DefaultExperiment",
         [("  <ModelVariables>\n", '  <DefaultExperiment stopTime="3"/>\n  <ModelVariables>\n')],
-        ('stopTime="3"', "<DefaultExperiment> is one too many"),
+        ('stopTime="3"', 'stopTime="3"', "<DefaultExperiment> is one too many"),
     ),
     (
         "Annotations before the variable's type element",
         [('<Real unit="N" start="0"/>', '<Annotations><Tool name="t"/></Annotations><Real unit="N" start="0"/>')],
-        ("<Annotations>", "<Annotations> is not allowed here"),
+        ("<Annotations>", "<Annotations>", "<Annotations> is not allowed here"),
     ),
     (
         "a type element too many",
         [('<Real unit="N" start="0"/>\n', '<Real unit="N" start="0"/>\n      <Integer/>\n')],
-        ("<Integer/>", "needs exactly one of"),
+        # The typed reading refuses the variable itself, naming it, at its start tag.
+        ("<Integer/>", '<ScalarVariable name="drive"', "needs exactly one of"),
     ),
     (
         "LogCategories without a category",
@@ -82,7 +85,7 @@ CASES = [
                 "",
             )
         ],
-        ("<LogCategories>", "LogCategories: misses <Category>"),
+        ("<LogCategories>", "<LogCategories>", "LogCategories: misses <Category>"),
     ),
     (
         "free content in a vendor annotation",
@@ -91,6 +94,39 @@ CASES = [
                 "  <ModelVariables>\n",
                 '  <VendorAnnotations><Tool name="t"><Any><Deeper x="1"/><More/></Any></Tool>'
                 "</VendorAnnotations>\n  <ModelVariables>\n",
+            )
+        ],
+        None,
+    ),
+    (
+        "an attribute the schema does not define",
+        [('<ScalarVariable name="drive"', '<ScalarVariable foo="1" name="drive"')],
+        ('foo="1"', 'foo="1"', "attribute 'foo' is not defined for <ScalarVariable>"),
+    ),
+    (
+        "an attribute of another type element",
+        [('<Real unit="N" start="0"/>', '<Real unit="N" start="0" declaredType="x" reinit="false" causality="input"/>')],
+        ('causality="input"/>', 'causality="input"/>', "attribute 'causality' is not defined for <Real>"),
+    ),
+    (
+        "an undefined attribute in a start tag over several lines",
+        [('    canSerializeFMUstate="true"\n', '    canSerializeFMUstate="true"\n    bar="2"\n')],
+        # libxml2 names the line the start tag ends on; we name the attribute's.
+        ('canNotUseMemoryManagementFunctions="true"/>', 'bar="2"', "attribute 'bar' is not defined for <CoSimulation>"),
+    ),
+    (
+        "a duplicated attribute",
+        [('<ScalarVariable name="drive"', '<ScalarVariable name="x0" name="drive"')],
+        ('name="x0"', 'name="x0"', "duplicated attribute"),
+    ),
+    (
+        "xsi attributes",
+        [
+            (
+                'numberOfEventIndicators="0">',
+                'numberOfEventIndicators="0" '
+                'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+                'xsi:noNamespaceSchemaLocation="fmi2ModelDescription.xsd">',
             )
         ],
         None,
@@ -137,14 +173,13 @@ def test_fmpy_and_the_importer_agree(
         assert ours.returncode == 0, f"{case}: we refused:\n{ours.stderr}"
         return
 
-    marker, words = expected
-    line = next(i for i, row in enumerate(text.splitlines(), 1) if marker in row)
-    assert any(f"line {line}," in p for p in fmpy_problems), (
-        f"{case}: fmpy did not name line {line}: {fmpy_problems}"
+    fmpy_marker, our_marker, words = expected
+    rows = text.splitlines()
+    fmpy_line = next(i for i, row in enumerate(rows, 1) if fmpy_marker in row)
+    assert any(f"line {fmpy_line}," in p for p in fmpy_problems), (
+        f"{case}: fmpy did not name line {fmpy_line}: {fmpy_problems}"
     )
-    if words == "needs exactly one of":
-        # The typed reading refuses the variable itself, naming it, at its start tag.
-        line = next(i for i in range(line, 0, -1) if "<ScalarVariable" in text.splitlines()[i - 1])
+    line = next(i for i, row in enumerate(rows, 1) if our_marker in row)
     assert ours.returncode != 0, f"{case}: we accepted it:\n{ours.stdout}"
     # Validation problems read "line N: ...", a description the parse refuses "file:N: ...".
     named = f"line {line}: " in ours.stderr or f"modelDescription.xml:{line}: " in ours.stderr

@@ -10,10 +10,11 @@ use std::str::FromStr;
 
 use quick_xml::Reader;
 use quick_xml::events::Event;
+use quick_xml::events::attributes::AttrError;
 
 use super::error::{MdError, MdErrorKind, ParseEnumError};
 use super::raw::*;
-use super::schema::{Content, Place};
+use super::schema::{self, Content, Place};
 use super::*;
 
 /// Byte offsets of element starts, keyed by `parent/name`, in document order.
@@ -53,6 +54,16 @@ impl<'a> Positions<'a> {
     /// Line of the `i`-th element with this key.
     fn line(&self, key: &str, i: usize) -> Option<usize> {
         self.offset(key, i).map(|o| self.line_at(o))
+    }
+
+    /// Line of `attribute` in the start tag between these offsets, else the tag's first.
+    fn attribute_line(&self, start: usize, end: usize, attribute: &str) -> usize {
+        let tag = self.xml.get(start..end).unwrap_or("");
+        let found = [' ', '\n', '\t', '\r']
+            .iter()
+            .filter_map(|c| tag.find(&format!("{c}{attribute}=")))
+            .min();
+        self.line_at(start + found.map_or(0, |f| f + 1))
     }
 
     /// Line of `attribute` at or after the `i`-th element with this key, falling back to
@@ -155,6 +166,49 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                     reports.push(positions.line_at(before), parent, message);
                     Content::Refused
                 });
+                let defined = match content {
+                    Content::Refused => None,
+                    _ => schema::attributes(place.content(), &name),
+                };
+                let after = usize::try_from(reader.buffer_position()).unwrap_or(usize::MAX);
+                for attribute in s.attributes() {
+                    let attribute = match attribute {
+                        Ok(a) => a,
+                        // A malformed attribute makes the file malformed; the error names the
+                        // line of the faulty one (serde would say only "position 25" within
+                        // its tag).
+                        Err(e) => {
+                            let at = match e {
+                                AttrError::ExpectedEq(p)
+                                | AttrError::ExpectedValue(p)
+                                | AttrError::UnquotedValue(p)
+                                | AttrError::ExpectedQuote(p, _)
+                                | AttrError::Duplicated(p, _) => p,
+                            };
+                            // Positions count from the tag's name, one byte after its `<`.
+                            let line = positions.line_at(before.saturating_add(1 + at));
+                            return Err(MdError::new(
+                                Some(line),
+                                MdErrorKind::Xml(format!("<{name}>: {e}")),
+                            ));
+                        }
+                    };
+                    let key = attribute.key.into_inner();
+                    let undefined = defined.is_some_and(|defined| {
+                        !(defined.contains(&key)
+                            || key.starts_with("xmlns")
+                            || key.starts_with("xsi:"))
+                    });
+                    if undefined {
+                        reports.push(
+                            positions.attribute_line(before, after, key),
+                            &name,
+                            format!(
+                                "attribute '{key}' is not defined for <{name}> by the FMI 2.0 schema"
+                            ),
+                        );
+                    }
+                }
                 positions
                     .starts
                     .entry(format!("{parent}/{name}"))

@@ -1,12 +1,11 @@
 //! Which elements the FMI 2.0 schema (`fmiModelDescription.xsd` and the files it includes)
-//! allows inside which, in which order and how often.
+//! allows inside which, in which order and how often, and which attributes each may carry.
 //!
-//! The typed parse reads the elements it knows in any order and skips the rest, so without
-//! this check an element the schema forbids (`<Foo>` among the `<ScalarVariable>`s, a
-//! `<LogCategories>` after `<DefaultExperiment>`) passed unnoticed although FMPy's schema
-//! validation refuses such a file. Attributes are not checked here: the typed parse reads
-//! the ones it knows, `validate` checks their values, and an attribute the schema does not
-//! define is ignored (FMPy's schema validation refuses it).
+//! The typed parse reads the elements and attributes it knows in any order and skips the
+//! rest, so without this check what the schema forbids (`<Foo>` among the
+//! `<ScalarVariable>`s, a `<LogCategories>` after `<DefaultExperiment>`, a `causality` on a
+//! `<Real>`) passed unnoticed although FMPy's schema validation refuses such a file. The
+//! attributes' values are the typed parse's and `validate`'s.
 //! A table rather than an XSD validator: the schema's content models are these few rows,
 //! and the crates that validate against an XSD bind libxml2, a C library the FMU build and
 //! the Windows cross-build would then need.
@@ -127,6 +126,106 @@ fn model(content: Content) -> &'static [Slot] {
     }
 }
 
+/// The attributes the schema defines for `child` standing in an element of content
+/// `parent`; `None` where the schema leaves them free (a `<Tool>`'s content) or the element
+/// was refused. Namespace declarations and `xsi:` attributes are every element's.
+pub(crate) fn attributes(parent: Content, child: &str) -> Option<&'static [&'static str]> {
+    use Content::*;
+    const REAL: &[&str] = &[
+        "quantity",
+        "unit",
+        "displayUnit",
+        "relativeQuantity",
+        "min",
+        "max",
+        "nominal",
+        "unbounded",
+    ];
+    const VARIABLE_REAL: &[&str] = &[
+        "declaredType",
+        "quantity",
+        "unit",
+        "displayUnit",
+        "relativeQuantity",
+        "min",
+        "max",
+        "nominal",
+        "unbounded",
+        "start",
+        "derivative",
+        "reinit",
+    ];
+    Some(match (parent, child) {
+        (Document, _) => &[
+            "fmiVersion",
+            "modelName",
+            "guid",
+            "description",
+            "author",
+            "version",
+            "copyright",
+            "license",
+            "generationTool",
+            "generationDateAndTime",
+            "variableNamingConvention",
+            "numberOfEventIndicators",
+        ],
+        (Root, "ModelExchange") => &[
+            "modelIdentifier",
+            "needsExecutionTool",
+            "completedIntegratorStepNotNeeded",
+            "canBeInstantiatedOnlyOncePerProcess",
+            "canNotUseMemoryManagementFunctions",
+            "canGetAndSetFMUstate",
+            "canSerializeFMUstate",
+            "providesDirectionalDerivative",
+        ],
+        (Root, "CoSimulation") => &[
+            "modelIdentifier",
+            "needsExecutionTool",
+            "canHandleVariableCommunicationStepSize",
+            "canInterpolateInputs",
+            "maxOutputDerivativeOrder",
+            "canRunAsynchronuously",
+            "canBeInstantiatedOnlyOncePerProcess",
+            "canNotUseMemoryManagementFunctions",
+            "canGetAndSetFMUstate",
+            "canSerializeFMUstate",
+            "providesDirectionalDerivative",
+        ],
+        (Root, "DefaultExperiment") => &["startTime", "stopTime", "tolerance", "stepSize"],
+        (SourceFiles, "File") | (UnitDefinitions, "Unit") | (Annotations, "Tool") => &["name"],
+        (Unit, "BaseUnit") => &[
+            "kg", "m", "s", "A", "K", "mol", "cd", "rad", "factor", "offset",
+        ],
+        (Unit, "DisplayUnit") => &["name", "factor", "offset"],
+        (TypeDefinitions, "SimpleType") => &["name", "description"],
+        (SimpleType, "Real") => REAL,
+        (SimpleType, "Integer") => &["quantity", "min", "max"],
+        (SimpleType, "Enumeration") => &["quantity"],
+        (TypeEnumeration, "Item") => &["name", "value", "description"],
+        (LogCategories, "Category") => &["name", "description"],
+        (ModelVariables, "ScalarVariable") => &[
+            "name",
+            "valueReference",
+            "description",
+            "causality",
+            "variability",
+            "initial",
+            "canHandleMultipleSetPerTimeInstant",
+        ],
+        (ScalarVariable, "Real") => VARIABLE_REAL,
+        (ScalarVariable, "Integer" | "Enumeration") => {
+            &["declaredType", "quantity", "min", "max", "start"]
+        }
+        (ScalarVariable, "Boolean" | "String") => &["declaredType", "start"],
+        (Unknowns, "Unknown") => &["index", "dependencies", "dependenciesKind"],
+        (Tool | Free | Refused, _) => return None,
+        // Elements that hold elements only, and the root's children of no attributes.
+        _ => &[],
+    })
+}
+
 /// "<a>, <b> or <c>".
 fn names(slot: &Slot) -> String {
     let all: Vec<String> = slot.names.iter().map(|(n, _)| format!("<{n}>")).collect();
@@ -160,6 +259,11 @@ impl Place {
             any_seen: false,
             failed: false,
         }
+    }
+
+    /// The content model this place follows.
+    pub fn content(&self) -> Content {
+        self.content
     }
 
     /// Admits `child` here: its content, or why the schema does not allow it here (it is

@@ -211,6 +211,38 @@ fn missing_file_names_the_file() {
     );
 }
 
+/// Malformed attributes are refused with the line of the faulty attribute, also inside a
+/// start tag over several lines (the root's spans lines 2–12).
+#[test]
+fn malformed_attributes_report_their_line() {
+    for (from, to, line, words) in [
+        (
+            "  author=\"ckcm project\"\n",
+            "  author=\"ckcm project\"\n  author=\"again\"\n",
+            8,
+            "duplicated attribute",
+        ),
+        (
+            "  version=\"0.1.0\"\n",
+            "  version=\"0.1.0\"\n  novalue\n",
+            // Where the `=` should have been: the next attribute's line.
+            10,
+            "must be directly followed by `=`",
+        ),
+        (
+            "name=\"x[1]\" valueReference=\"11\"",
+            "name=\"x[1]\" valueReference=11",
+            69,
+            "",
+        ),
+    ] {
+        let err = ModelDescription::parse(&edited(from, to)).unwrap_err();
+        assert!(matches!(*err.kind, MdErrorKind::Xml(_)), "{err:?}");
+        assert_eq!(err.line, Some(line), "{err}");
+        assert!(err.to_string().contains(words), "{err}");
+    }
+}
+
 #[test]
 fn malformed_xml_reports_its_line() {
     let xml = edited(

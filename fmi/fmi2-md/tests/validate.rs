@@ -463,3 +463,41 @@ fn order_and_counts_follow_the_schema() {
     )]);
     find(&p, &["line 38", "LogCategories: misses <Category>"]);
 }
+
+#[test]
+fn attributes_the_schema_does_not_define() {
+    let p = problems(&[
+        (
+            "  author=\"ckcm project\"\n",
+            "  author=\"ckcm project\"\n  copyrite=\"2026\"\n",
+        ),
+        (
+            "numberOfEventIndicators=\"0\">",
+            "numberOfEventIndicators=\"0\" xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" \
+             xsi:noNamespaceSchemaLocation=\"fmi2ModelDescription.xsd\">",
+        ),
+        (
+            "<Real declaredType=\"Force\" start=\"0\"/>",
+            "<Real declaredType=\"Force\" start=\"0\" variability=\"fixed\"/>",
+        ),
+    ]);
+    assert_eq!(
+        p.len(),
+        2,
+        "namespace and xsi attributes are every element's: {p:#?}"
+    );
+    // The attribute's own line, inside a start tag over several lines.
+    let root = find(
+        &p,
+        &["fmiModelDescription: attribute 'copyrite' is not defined for <fmiModelDescription>"],
+    );
+    assert_eq!(root.line, Some(8));
+    let real = find(&p, &["attribute 'variability' is not defined for <Real>"]);
+    assert_eq!(real.line, Some(47));
+    // What the schema defines passes, `copyright` and `license` among it.
+    let p = problems(&[(
+        "  author=\"ckcm project\"\n",
+        "  author=\"ckcm project\"\n  copyright=\"2026\" license=\"MIT\"\n",
+    )]);
+    assert_eq!(p, vec![]);
+}
