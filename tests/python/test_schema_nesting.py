@@ -120,6 +120,28 @@ CASES = [
         ('name="x0"', 'name="x0"', "duplicated attribute"),
     ),
     (
+        "text among the variables",
+        [("    <!-- 1 -->\n", "    <!-- 1 -->\n    drive:\n")],
+        # libxml2 names the line of the element holding the text; we name the text's.
+        ("<ModelVariables>", "drive:", "ModelVariables: text is not allowed here"),
+    ),
+    (
+        "text in a variable's type element",
+        [('<Real unit="N" start="0"/>', '<Real unit="N" start="0">0.5</Real>')],
+        (">0.5<", ">0.5<", "Real: text is not allowed here"),
+    ),
+    (
+        "text in a vendor annotation",
+        [
+            (
+                "  <ModelVariables>\n",
+                '  <VendorAnnotations><Tool name="t"><Any>free &amp; text</Any></Tool>'
+                "</VendorAnnotations>\n  <ModelVariables>\n",
+            )
+        ],
+        None,
+    ),
+    (
         "xsi attributes",
         [
             (

@@ -130,6 +130,22 @@ impl Reports {
     }
 }
 
+/// Text other than whitespace at `offset`, inside the innermost open element: a problem
+/// where the schema allows elements only (every FMI 2.0 element but a `<Tool>`'s content),
+/// reported once per element.
+fn text_inside(
+    stack: &mut [(String, usize, Place)],
+    reports: &mut Reports,
+    positions: &Positions<'_>,
+    offset: usize,
+) {
+    if let Some((name, _, place)) = stack.last_mut() {
+        if let Some(message) = place.text() {
+            reports.push(positions.line_at(offset), name, message);
+        }
+    }
+}
+
 /// Checks well-formedness, records element positions and checks the schema's content models.
 fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
     let mut reader = Reader::from_str(xml);
@@ -228,6 +244,13 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         reports.push(positions.line_at(at), &name, message);
                     }
                 }
+            }
+            Event::Text(ref t) if !t.trim().is_empty() => {
+                let skipped = t.len() - t.trim_start().len();
+                text_inside(&mut stack, &mut reports, &positions, before + skipped);
+            }
+            Event::CData(_) | Event::GeneralRef(_) => {
+                text_inside(&mut stack, &mut reports, &positions, before);
             }
             Event::Eof => break,
             _ => {}

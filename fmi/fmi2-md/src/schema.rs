@@ -1,5 +1,6 @@
 //! Which elements the FMI 2.0 schema (`fmiModelDescription.xsd` and the files it includes)
-//! allows inside which, in which order and how often, and which attributes each may carry.
+//! allows inside which, in which order and how often, which attributes each may carry, and
+//! that none holds text (a `<Tool>`'s content aside).
 //!
 //! The typed parse reads the elements and attributes it knows in any order and skips the
 //! rest, so without this check what the schema forbids (`<Foo>` among the
@@ -248,6 +249,8 @@ pub(crate) struct Place {
     /// error per element: a misplaced element would otherwise put every later sibling out
     /// of order too.
     failed: bool,
+    /// Whether text inside this element has been reported.
+    text_seen: bool,
 }
 
 impl Place {
@@ -258,6 +261,7 @@ impl Place {
             filled: 0,
             any_seen: false,
             failed: false,
+            text_seen: false,
         }
     }
 
@@ -343,6 +347,22 @@ impl Place {
         }
         self.filled += 1;
         Ok(content)
+    }
+
+    /// Text (other than whitespace) inside this element: why the schema does not allow it,
+    /// the first time only.
+    pub fn text(&mut self) -> Option<String> {
+        match self.content {
+            Content::Document | Content::Free | Content::Refused => None,
+            _ if self.text_seen => None,
+            _ => {
+                self.text_seen = true;
+                Some(
+                    "text is not allowed here: this element holds elements and attributes only"
+                        .into(),
+                )
+            }
+        }
     }
 
     /// At the element's end: a required slot left empty, if any.

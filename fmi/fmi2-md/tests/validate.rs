@@ -501,3 +501,28 @@ fn attributes_the_schema_does_not_define() {
     )]);
     assert_eq!(p, vec![]);
 }
+
+/// Text where the schema allows elements only is a problem at the text's line, once per
+/// element; whitespace, comments and a `<Tool>`'s content are free.
+#[test]
+fn text_where_elements_belong() {
+    let p = problems(&[
+        (
+            "    <!-- index 1 -->\n",
+            "    <!-- index 1 -->\n    forces:\n    <![CDATA[more]]>\n",
+        ),
+        (
+            "<Real declaredType=\"Force\" start=\"0\"/>",
+            "<Real declaredType=\"Force\" start=\"0\">&amp;</Real>",
+        ),
+        (
+            "  <ModelVariables>\n",
+            "  <VendorAnnotations><Tool name=\"t\"><Any>free</Any></Tool></VendorAnnotations>\n  <ModelVariables>\n",
+        ),
+    ]);
+    assert_eq!(p.len(), 2, "{p:#?}");
+    let list = find(&p, &["ModelVariables: text is not allowed here"]);
+    assert_eq!(list.line, Some(46));
+    let real = find(&p, &["Real: text is not allowed here"]);
+    assert_eq!(real.line, Some(49));
+}
