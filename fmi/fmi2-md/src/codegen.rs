@@ -364,7 +364,7 @@ mod tests {
                 ),
             ],
             model_structure: ModelStructure::default(),
-            nesting: vec![],
+            schema_problems: vec![],
         };
         let src = codegen_rust(&md);
         assert!(src.contains("pub const GUID: &str = \"{abc}\";"), "{src}");

@@ -94,10 +94,10 @@ pub struct ModelDescription {
     pub model_variables: Vec<ScalarVariable>,
     /// The `<ModelStructure>` element's content.
     pub model_structure: ModelStructure,
-    /// Elements the schema's content models do not allow where, in which order or how
-    /// often they stand, or that miss a required child: found by the parse (which reads
-    /// what it knows in any order) and reported by `validate`.
-    nesting: Vec<Problem>,
+    /// What the FMI 2.0 schema does not allow (elements out of place, order or count,
+    /// missing children, undefined attributes, text): found by the parse, which reads what
+    /// it knows in any order and skips the rest, and reported by `validate`.
+    schema_problems: Vec<Problem>,
 }
 
 /// `variableNamingConvention`.

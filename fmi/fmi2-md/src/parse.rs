@@ -85,17 +85,17 @@ impl<'a> Positions<'a> {
 
 /// At most this many schema problems are reported one by one; a generated file with
 /// thousands would otherwise bury the first under the rest.
-const NESTING_REPORTED: usize = 100;
+const SCHEMA_REPORTED: usize = 100;
 
-/// What the streaming pass finds: the root's name, where elements start, and the elements
-/// the schema's content models do not allow where, in which order or how often they stand.
+/// What the streaming pass finds: the root's name, where elements start, and what the
+/// schema does not allow (see `schema.rs`).
 struct Scan<'a> {
     root: String,
     positions: Positions<'a>,
-    nesting: Vec<Problem>,
+    schema_problems: Vec<Problem>,
 }
 
-/// The schema problems found so far: the first [`NESTING_REPORTED`], then a count.
+/// The schema problems found so far: the first [`SCHEMA_REPORTED`], then a count.
 #[derive(Default)]
 struct Reports {
     listed: Vec<Problem>,
@@ -104,7 +104,7 @@ struct Reports {
 
 impl Reports {
     fn push(&mut self, line: usize, element: &str, message: String) {
-        if self.listed.len() < NESTING_REPORTED {
+        if self.listed.len() < SCHEMA_REPORTED {
             self.listed.push(Problem {
                 line: Some(line),
                 element: element.to_owned(),
@@ -120,10 +120,7 @@ impl Reports {
             self.listed.push(Problem {
                 line: None,
                 element: "fmiModelDescription".into(),
-                message: format!(
-                    "{} more elements out of the schema's place or order",
-                    self.unlisted
-                ),
+                message: format!("{} more problems with the schema", self.unlisted),
             });
         }
         self.listed
@@ -146,7 +143,7 @@ fn text_inside(
     }
 }
 
-/// Checks well-formedness, records element positions and checks the schema's content models.
+/// Checks well-formedness, records element positions and checks the schema (`schema.rs`).
 fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
     let mut reader = Reader::from_str(xml);
     let mut positions = Positions::new(xml);
@@ -266,7 +263,7 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
         Some(root) => Ok(Scan {
             root,
             positions,
-            nesting: reports.into_problems(),
+            schema_problems: reports.into_problems(),
         }),
         None => Err(MdError::new(
             None,
@@ -392,7 +389,7 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
     let Scan {
         root,
         positions: pos,
-        nesting,
+        schema_problems,
     } = scan(xml)?;
     if root != "fmiModelDescription" {
         let line = pos.line(&format!("/{root}"), 0);
@@ -401,7 +398,7 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
     let raw: RawModelDescription = quick_xml::de::from_str(xml).map_err(|e| {
         // serde's errors carry no position; an element out of the schema's place or order
         // (a second <DefaultExperiment> is "duplicate field") is what they mean, with a line.
-        match nesting.first() {
+        match schema_problems.first() {
             Some(p) => MdError::new(
                 p.line,
                 MdErrorKind::InvalidElement {
@@ -412,13 +409,13 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
             None => MdError::new(None, MdErrorKind::Xml(e.to_string())),
         }
     })?;
-    convert(raw, &pos, nesting)
+    convert(raw, &pos, schema_problems)
 }
 
 fn convert(
     raw: RawModelDescription,
     pos: &Positions<'_>,
-    nesting: Vec<Problem>,
+    schema_problems: Vec<Problem>,
 ) -> Result<ModelDescription, MdError> {
     let root = Ctx {
         pos,
@@ -555,7 +552,7 @@ fn convert(
         default_experiment,
         model_variables,
         model_structure,
-        nesting,
+        schema_problems,
     })
 }
 

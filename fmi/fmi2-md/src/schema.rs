@@ -394,7 +394,7 @@ mod tests {
     }
 
     #[test]
-    fn nesting_order_and_counts_follow_the_schema() {
+    fn nesting_order_and_counts_follow_the_schema_content_models() {
         use Content::*;
         assert_eq!(
             admit_all(
@@ -460,6 +460,32 @@ mod tests {
         assert!(admit_all(Tool, &["Any", "Other"])[1].is_err());
         assert_eq!(admit_all(Free, &["A", "B"]), [Ok(Free), Ok(Free)]);
         assert_eq!(admit_all(Refused, &["Inner"]), [Ok(Refused)]);
+    }
+
+    #[test]
+    fn attributes_by_element_and_place() {
+        use Content::*;
+        let of = |parent, child| attributes(parent, child).map(<[&str]>::to_vec);
+        assert_eq!(
+            of(ScalarVariable, "Boolean"),
+            Some(vec!["declaredType", "start"])
+        );
+        // A type's <Real> has no start; a variable's has.
+        assert!(!of(SimpleType, "Real").unwrap().contains(&"start"));
+        assert!(of(ScalarVariable, "Real").unwrap().contains(&"start"));
+        assert!(
+            of(Root, "CoSimulation")
+                .unwrap()
+                .contains(&"canRunAsynchronuously")
+        );
+        assert!(
+            !of(Root, "ModelExchange")
+                .unwrap()
+                .contains(&"canRunAsynchronuously")
+        );
+        assert_eq!(of(Root, "ModelVariables"), Some(vec![]));
+        assert_eq!(of(Tool, "Anything"), None);
+        assert_eq!(of(Free, "Deeper"), None);
     }
 
     #[test]

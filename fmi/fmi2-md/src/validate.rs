@@ -28,7 +28,7 @@ impl Report {
 }
 
 pub(super) fn validate(md: &ModelDescription) -> Vec<Problem> {
-    let mut r = Report(md.nesting.clone());
+    let mut r = Report(md.schema_problems.clone());
     check_header(md, &mut r);
     check_definitions(md, &mut r);
     check_uniqueness(md, &mut r);
