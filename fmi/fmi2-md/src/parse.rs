@@ -207,8 +207,8 @@ fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         }
                     };
                     let key = attribute.key.into_inner();
-                    let undefined = defined.is_some_and(|defined| {
-                        !(defined.contains(&key)
+                    let undefined = defined.is_some_and(|groups| {
+                        !(groups.iter().any(|g| g.contains(&key))
                             || key.starts_with("xmlns")
                             || key.starts_with("xsi:"))
                     });

@@ -128,9 +128,13 @@ fn model(content: Content) -> &'static [Slot] {
 }
 
 /// The attributes the schema defines for `child` standing in an element of content
-/// `parent`; `None` where the schema leaves them free (a `<Tool>`'s content) or the element
-/// was refused. Namespace declarations and `xsi:` attributes are every element's.
-pub(crate) fn attributes(parent: Content, child: &str) -> Option<&'static [&'static str]> {
+/// `parent`, in groups as the schema shares them (`fmi2RealAttributes` and the like);
+/// `None` where the schema leaves them free (a `<Tool>`'s content) or the element was
+/// refused. Namespace declarations and `xsi:` attributes are every element's.
+pub(crate) fn attributes(
+    parent: Content,
+    child: &str,
+) -> Option<&'static [&'static [&'static str]]> {
     use Content::*;
     const REAL: &[&str] = &[
         "quantity",
@@ -142,22 +146,19 @@ pub(crate) fn attributes(parent: Content, child: &str) -> Option<&'static [&'sta
         "nominal",
         "unbounded",
     ];
-    const VARIABLE_REAL: &[&str] = &[
-        "declaredType",
-        "quantity",
-        "unit",
-        "displayUnit",
-        "relativeQuantity",
-        "min",
-        "max",
-        "nominal",
-        "unbounded",
-        "start",
-        "derivative",
-        "reinit",
+    const INTEGER: &[&str] = &["quantity", "min", "max"];
+    /// Both implementations' flags.
+    const IMPLEMENTATION: &[&str] = &[
+        "modelIdentifier",
+        "needsExecutionTool",
+        "canBeInstantiatedOnlyOncePerProcess",
+        "canNotUseMemoryManagementFunctions",
+        "canGetAndSetFMUstate",
+        "canSerializeFMUstate",
+        "providesDirectionalDerivative",
     ];
     Some(match (parent, child) {
-        (Document, _) => &[
+        (Document, _) => &[&[
             "fmiVersion",
             "modelName",
             "guid",
@@ -170,43 +171,30 @@ pub(crate) fn attributes(parent: Content, child: &str) -> Option<&'static [&'sta
             "generationDateAndTime",
             "variableNamingConvention",
             "numberOfEventIndicators",
-        ],
-        (Root, "ModelExchange") => &[
-            "modelIdentifier",
-            "needsExecutionTool",
-            "completedIntegratorStepNotNeeded",
-            "canBeInstantiatedOnlyOncePerProcess",
-            "canNotUseMemoryManagementFunctions",
-            "canGetAndSetFMUstate",
-            "canSerializeFMUstate",
-            "providesDirectionalDerivative",
-        ],
+        ]],
+        (Root, "ModelExchange") => &[IMPLEMENTATION, &["completedIntegratorStepNotNeeded"]],
         (Root, "CoSimulation") => &[
-            "modelIdentifier",
-            "needsExecutionTool",
-            "canHandleVariableCommunicationStepSize",
-            "canInterpolateInputs",
-            "maxOutputDerivativeOrder",
-            "canRunAsynchronuously",
-            "canBeInstantiatedOnlyOncePerProcess",
-            "canNotUseMemoryManagementFunctions",
-            "canGetAndSetFMUstate",
-            "canSerializeFMUstate",
-            "providesDirectionalDerivative",
+            IMPLEMENTATION,
+            &[
+                "canHandleVariableCommunicationStepSize",
+                "canInterpolateInputs",
+                "maxOutputDerivativeOrder",
+                "canRunAsynchronuously",
+            ],
         ],
-        (Root, "DefaultExperiment") => &["startTime", "stopTime", "tolerance", "stepSize"],
-        (SourceFiles, "File") | (UnitDefinitions, "Unit") | (Annotations, "Tool") => &["name"],
-        (Unit, "BaseUnit") => &[
+        (Root, "DefaultExperiment") => &[&["startTime", "stopTime", "tolerance", "stepSize"]],
+        (SourceFiles, "File") | (UnitDefinitions, "Unit") | (Annotations, "Tool") => &[&["name"]],
+        (Unit, "BaseUnit") => &[&[
             "kg", "m", "s", "A", "K", "mol", "cd", "rad", "factor", "offset",
-        ],
-        (Unit, "DisplayUnit") => &["name", "factor", "offset"],
-        (TypeDefinitions, "SimpleType") => &["name", "description"],
-        (SimpleType, "Real") => REAL,
-        (SimpleType, "Integer") => &["quantity", "min", "max"],
-        (SimpleType, "Enumeration") => &["quantity"],
-        (TypeEnumeration, "Item") => &["name", "value", "description"],
-        (LogCategories, "Category") => &["name", "description"],
-        (ModelVariables, "ScalarVariable") => &[
+        ]],
+        (Unit, "DisplayUnit") => &[&["name", "factor", "offset"]],
+        (TypeDefinitions, "SimpleType") => &[&["name", "description"]],
+        (SimpleType, "Real") => &[REAL],
+        (SimpleType, "Integer") => &[INTEGER],
+        (SimpleType, "Enumeration") => &[&["quantity"]],
+        (TypeEnumeration, "Item") => &[&["name", "value", "description"]],
+        (LogCategories, "Category") => &[&["name", "description"]],
+        (ModelVariables, "ScalarVariable") => &[&[
             "name",
             "valueReference",
             "description",
@@ -214,13 +202,11 @@ pub(crate) fn attributes(parent: Content, child: &str) -> Option<&'static [&'sta
             "variability",
             "initial",
             "canHandleMultipleSetPerTimeInstant",
-        ],
-        (ScalarVariable, "Real") => VARIABLE_REAL,
-        (ScalarVariable, "Integer" | "Enumeration") => {
-            &["declaredType", "quantity", "min", "max", "start"]
-        }
-        (ScalarVariable, "Boolean" | "String") => &["declaredType", "start"],
-        (Unknowns, "Unknown") => &["index", "dependencies", "dependenciesKind"],
+        ]],
+        (ScalarVariable, "Real") => &[&["declaredType", "start", "derivative", "reinit"], REAL],
+        (ScalarVariable, "Integer" | "Enumeration") => &[&["declaredType", "start"], INTEGER],
+        (ScalarVariable, "Boolean" | "String") => &[&["declaredType", "start"]],
+        (Unknowns, "Unknown") => &[&["index", "dependencies", "dependenciesKind"]],
         (Tool | Free | Refused, _) => return None,
         // Elements that hold elements only, and the root's children of no attributes.
         _ => &[],
@@ -465,7 +451,7 @@ mod tests {
     #[test]
     fn attributes_by_element_and_place() {
         use Content::*;
-        let of = |parent, child| attributes(parent, child).map(<[&str]>::to_vec);
+        let of = |parent, child| attributes(parent, child).map(|groups| groups.concat());
         assert_eq!(
             of(ScalarVariable, "Boolean"),
             Some(vec!["declaredType", "start"])
@@ -473,6 +459,7 @@ mod tests {
         // A type's <Real> has no start; a variable's has.
         assert!(!of(SimpleType, "Real").unwrap().contains(&"start"));
         assert!(of(ScalarVariable, "Real").unwrap().contains(&"start"));
+        assert!(of(ScalarVariable, "Real").unwrap().contains(&"nominal"));
         assert!(
             of(Root, "CoSimulation")
                 .unwrap()
@@ -482,6 +469,11 @@ mod tests {
             !of(Root, "ModelExchange")
                 .unwrap()
                 .contains(&"canRunAsynchronuously")
+        );
+        assert!(
+            of(Root, "ModelExchange")
+                .unwrap()
+                .contains(&"modelIdentifier")
         );
         assert_eq!(of(Root, "ModelVariables"), Some(vec![]));
         assert_eq!(of(Tool, "Anything"), None);
