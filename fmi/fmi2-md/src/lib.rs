@@ -14,6 +14,7 @@
 pub mod codegen;
 mod datetime;
 mod error;
+mod names;
 mod parse;
 mod raw;
 mod schema;

@@ -269,6 +269,13 @@ fn check_uniqueness(md: &ModelDescription, r: &mut Report) {
     let mut names: HashMap<&str, usize> = HashMap::new();
     let mut vrs: HashMap<(VarType, u32), &str> = HashMap::new();
     for (i, v) in md.model_variables.iter().enumerate() {
+        let malformed = match md.variable_naming_convention {
+            VariableNamingConvention::Flat => super::names::flat_error(&v.name),
+            VariableNamingConvention::Structured => super::names::structured_error(&v.name),
+        };
+        if let Some(why) = malformed {
+            r.var(v, why);
+        }
         match names.get(v.name.as_str()) {
             Some(first) => r.var(
                 v,

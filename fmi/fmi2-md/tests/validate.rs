@@ -526,3 +526,37 @@ fn text_where_elements_belong() {
     let real = find(&p, &["Real: text is not allowed here"]);
     assert_eq!(real.line, Some(49));
 }
+
+/// Names follow the description's naming convention (the fixture's is `structured`).
+#[test]
+fn names_follow_the_naming_convention() {
+    let p = problems(&[(
+        "name=\"x[1]\" valueReference=\"11\"",
+        "name=\"x[01].1\" valueReference=\"11\"",
+    )]);
+    let bad = find(
+        &p,
+        &[
+            "ScalarVariable 'x[01].1'",
+            "not a structured name",
+            "a name cannot start with '1' at character 7",
+        ],
+    );
+    assert_eq!(bad.line, Some(69));
+    assert_eq!(p.len(), 1, "{p:#?}");
+    let p = problems(&[
+        (
+            "variableNamingConvention=\"structured\"",
+            "variableNamingConvention=\"flat\"",
+        ),
+        (
+            "name=\"x[1]\" valueReference=\"11\"",
+            "name=\"x[01].1 &#10;\" valueReference=\"11\"",
+        ),
+    ]);
+    find(
+        &p,
+        &["name holds a line feed at character 9, which flat names may not"],
+    );
+    assert_eq!(p.len(), 1, "{p:#?}");
+}
