@@ -463,6 +463,25 @@ pub enum DependencyKind {
     Discrete,
 }
 
+/// `text` with its control characters written as `\u{..}`, for names and labels in
+/// messages: a name from a foreign file must not move a terminal's cursor or clear it.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.chars().any(char::is_control) {
+        text.chars()
+            .map(|c| {
+                if c.is_control() {
+                    c.escape_unicode().to_string()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect::<String>()
+            .into()
+    } else {
+        text.into()
+    }
+}
+
 impl ModelDescription {
     /// Parses a model description from its XML text. Fails on malformed XML, unreadable
     /// attribute values, FMI versions other than 2.0 and descriptions without

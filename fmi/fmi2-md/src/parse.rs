@@ -801,7 +801,7 @@ fn convert_variable(
     };
     let name = c.required(v.name, "name")?;
     let c = Ctx {
-        label: format!("ScalarVariable '{name}'"),
+        label: format!("ScalarVariable '{}'", printable(&name)),
         ..c
     };
     let value_reference = c

@@ -23,7 +23,11 @@ impl Report {
     }
 
     fn var(&mut self, v: &ScalarVariable, message: impl Into<String>) {
-        self.push(v.line, format!("ScalarVariable '{}'", v.name), message);
+        self.push(
+            v.line,
+            format!("ScalarVariable '{}'", printable(&v.name)),
+            message,
+        );
     }
 }
 
@@ -390,7 +394,7 @@ fn declared<'a>(
 }
 
 fn check_kind(md: &ModelDescription, v: &ScalarVariable, r: &mut Report) {
-    let element = format!("ScalarVariable '{}'", v.name);
+    let element = format!("ScalarVariable '{}'", printable(&v.name));
     let wrong_type = |r: &mut Report, n: &str, want: &str| {
         r.var(v, format!("declaredType '{n}' is not a {want} type"));
     };
