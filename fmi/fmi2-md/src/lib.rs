@@ -463,23 +463,25 @@ pub enum DependencyKind {
     Discrete,
 }
 
-/// `text` with its control characters written as `\u{..}`, for names and labels in
-/// messages: a name from a foreign file must not move a terminal's cursor or clear it.
+/// `text` with its control characters written as `\u{..}` and its backslashes doubled, for
+/// names, descriptions and labels shown to a user: a name from a foreign file must not move a
+/// terminal's cursor or clear it, and a name that holds the six characters `\u{1b}` must
+/// still read differently from one that holds ESC.
 pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
-    if text.chars().any(char::is_control) {
-        text.chars()
-            .map(|c| {
-                if c.is_control() {
-                    c.escape_unicode().to_string()
-                } else {
-                    c.to_string()
-                }
-            })
-            .collect::<String>()
-            .into()
-    } else {
-        text.into()
+    if !text.chars().any(|c| c.is_control() || c == '\\') {
+        return std::borrow::Cow::Borrowed(text);
     }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c == '\\' {
+            out.push_str("\\\\");
+        } else if c.is_control() {
+            out.extend(c.escape_unicode());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
 }
 
 impl ModelDescription {

@@ -10,7 +10,7 @@ use anyhow::Result;
 use fmi2_import::Fmu;
 use fmi2_md::{
     Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind,
-    VariableNamingConvention,
+    VariableNamingConvention, printable,
 };
 
 use crate::args::InfoArgs;
@@ -27,7 +27,7 @@ fn describe(fmu: &Fmu) -> String {
     let md = fmu.model_description();
     let mut out = String::new();
     // Writing into a String cannot fail; the `let _ =` below discard that impossible error.
-    let _ = writeln!(out, "{}", escape(&fmu.path().display().to_string()));
+    let _ = writeln!(out, "{}", printable(&fmu.path().display().to_string()));
     let mut identity = vec![
         ("Model", md.model_name.clone()),
         ("FMI version", md.fmi_version.clone()),
@@ -61,7 +61,7 @@ fn describe(fmu: &Fmu) -> String {
         let _ = writeln!(
             out,
             "Co-Simulation (modelIdentifier {})",
-            escape(&cs.model_identifier)
+            printable(&cs.model_identifier)
         );
         let flags = [
             (
@@ -101,7 +101,7 @@ fn describe(fmu: &Fmu) -> String {
             let _ = writeln!(
                 out,
                 "Model Exchange (modelIdentifier {}): offered, not used by this tool",
-                escape(&me.model_identifier)
+                printable(&me.model_identifier)
             );
         }
         None => out.push_str("Model Exchange: not offered\n"),
@@ -133,9 +133,9 @@ fn describe(fmu: &Fmu) -> String {
         for (t, items) in enumerations {
             let list: Vec<String> = items
                 .iter()
-                .map(|i| format!("{} = {}", i.value, escape(&i.name)))
+                .map(|i| format!("{} = {}", i.value, printable(&i.name)))
                 .collect();
-            let _ = writeln!(out, "  {}: {}", escape(&t.name), list.join(", "));
+            let _ = writeln!(out, "  {}: {}", printable(&t.name), list.join(", "));
         }
     }
 
@@ -275,37 +275,17 @@ fn range(md: &ModelDescription, v: &ScalarVariable) -> String {
     }
 }
 
-/// `text` with control characters (from any string of the model description) escaped as
-/// `\u{1b}`, so a hostile or broken FMU cannot move the cursor, clear the screen or forge
-/// lines in the user's terminal. Backslashes are escaped too, so the output is unambiguous.
-fn escape(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(|c| c.is_control() || c == '\\') {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let mut out = String::with_capacity(text.len() + 8);
-    for c in text.chars() {
-        if c == '\\' {
-            out.push_str("\\\\");
-        } else if c.is_control() {
-            let _ = write!(out, "\\u{{{:x}}}", u32::from(c));
-        } else {
-            out.push(c);
-        }
-    }
-    std::borrow::Cow::Owned(out)
-}
-
 /// `key   value` lines with the values aligned.
 fn key_values(indent: &str, pairs: &[(&str, String)]) -> String {
     let width = pairs
         .iter()
-        .map(|(k, _)| escape(k).chars().count())
+        .map(|(k, _)| printable(k).chars().count())
         .max()
         .unwrap_or(0);
     let mut out = String::new();
     for (k, v) in pairs {
-        let k = escape(k);
-        let _ = writeln!(out, "{indent}{k:<width$}  {}", escape(v));
+        let k = printable(k);
+        let _ = writeln!(out, "{indent}{k:<width$}  {}", printable(v));
     }
     out
 }
@@ -315,7 +295,7 @@ fn key_values(indent: &str, pairs: &[(&str, String)]) -> String {
 fn table(indent: &str, header: &[&str], rows: &[Vec<String>]) -> String {
     let rows: Vec<Vec<String>> = rows
         .iter()
-        .map(|r| r.iter().map(|c| escape(c).into_owned()).collect())
+        .map(|r| r.iter().map(|c| printable(c).into_owned()).collect())
         .collect();
     let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
     for row in &rows {
