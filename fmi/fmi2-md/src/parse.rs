@@ -56,6 +56,28 @@ impl<'a> Positions<'a> {
         self.offset(key, i).map(|o| self.line_at(o))
     }
 
+    /// serde's "duplicate field `X`" (a second `<CoSimulation>`, which the schema's
+    /// structure allows) as an error at the second `<X>`'s line.
+    fn second(&self, serde_message: &str) -> Option<MdError> {
+        let name = serde_message
+            .strip_prefix("duplicate field `")?
+            .strip_suffix('`')?;
+        let (key, at) = self
+            .starts
+            .iter()
+            .filter(|(key, _)| key.rsplit('/').next() == Some(name))
+            .filter_map(|(key, at)| Some((key, *at.get(1)?)))
+            .min_by_key(|&(_, at)| at)?;
+        let parent = key.rsplit_once('/').map_or("", |(parent, _)| parent);
+        Some(MdError::new(
+            Some(self.line_at(at)),
+            MdErrorKind::InvalidElement {
+                element: parent.to_owned(),
+                message: format!("a second <{name}>; there may be only one"),
+            },
+        ))
+    }
+
     /// Line of `attribute` in the start tag between these offsets, else the tag's first.
     fn attribute_line(&self, start: usize, end: usize, attribute: &str) -> usize {
         let tag = self.xml.get(start..end).unwrap_or("");
@@ -406,7 +428,9 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
                     message: p.message.clone(),
                 },
             ),
-            None => MdError::new(None, MdErrorKind::Xml(e.to_string())),
+            None => pos
+                .second(&e.to_string())
+                .unwrap_or_else(|| MdError::new(None, MdErrorKind::Xml(e.to_string()))),
         }
     })?;
     convert(raw, &pos, schema_problems)

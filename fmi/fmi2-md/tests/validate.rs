@@ -446,6 +446,18 @@ fn order_and_counts_follow_the_schema() {
         "{err}"
     );
 
+    // Two <CoSimulation> pass the schema's structure (it repeats the pair of
+    // implementations) but not the typed parse, which names the second one's line.
+    let twice = edited(&[(
+        "  <UnitDefinitions>\n",
+        "  <CoSimulation modelIdentifier=\"Other\"/>\n  <UnitDefinitions>\n",
+    )]);
+    let err = ModelDescription::parse(&twice).unwrap_err().to_string();
+    assert!(
+        err.contains("line 18") && err.contains("a second <CoSimulation>"),
+        "{err}"
+    );
+
     let p = problems(&[(
         "<UnitDefinitions>\n    <Unit name=\"N\">",
         "<UnitDefinitions>\n    <Unit name=\"N\"><DisplayUnit name=\"kN\" factor=\"0.001\"/>",
