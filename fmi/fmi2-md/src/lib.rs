@@ -17,6 +17,7 @@ mod error;
 mod names;
 mod parse;
 mod raw;
+mod scan;
 mod schema;
 mod validate;
 
