@@ -23,6 +23,18 @@ struct Ctx<'p, 'x> {
 }
 
 impl Ctx<'_, '_> {
+    /// A type or variable holds exactly one of the five type elements (which of them, in
+    /// the order `<Real>`, `<Integer>`, `<Boolean>`, `<String>`, `<Enumeration>`).
+    fn one_type_element(&self, present: [bool; 5]) -> Result<(), MdError> {
+        let count = present.iter().filter(|&&b| b).count();
+        if count == 1 {
+            return Ok(());
+        }
+        Err(self.element_error(format!(
+            "needs exactly one of <Real>, <Integer>, <Boolean>, <String>, <Enumeration>, found {count}"
+        )))
+    }
+
     fn line(&self) -> Option<usize> {
         self.pos.line(self.key, self.index)
     }
@@ -462,21 +474,13 @@ fn convert_simple_type(
         label: format!("SimpleType '{name}'"),
         ..c
     };
-    let count = [
+    c.one_type_element([
         t.real.is_some(),
         t.integer.is_some(),
         t.boolean.is_some(),
         t.string.is_some(),
         t.enumeration.is_some(),
-    ]
-    .iter()
-    .filter(|&&b| b)
-    .count();
-    if count != 1 {
-        return Err(c.element_error(format!(
-            "needs exactly one of <Real>, <Integer>, <Boolean>, <String>, <Enumeration>, found {count}"
-        )));
-    }
+    ])?;
     let kind = if let Some(r) = t.real {
         SimpleTypeKind::Real {
             quantity: r.quantity,
@@ -559,21 +563,13 @@ fn convert_variable(
         Some(explicit) => Some(explicit),
         None => default_initial(causality, variability),
     };
-    let count = [
+    c.one_type_element([
         v.real.is_some(),
         v.integer.is_some(),
         v.boolean.is_some(),
         v.string.is_some(),
         v.enumeration.is_some(),
-    ]
-    .iter()
-    .filter(|&&b| b)
-    .count();
-    if count != 1 {
-        return Err(c.element_error(format!(
-            "needs exactly one of <Real>, <Integer>, <Boolean>, <String>, <Enumeration>, found {count}"
-        )));
-    }
+    ])?;
     let kind = if let Some(r) = v.real {
         VariableKind::Real {
             declared_type: r.declared_type,
