@@ -23,8 +23,8 @@ struct Ctx<'p, 'x> {
 }
 
 impl Ctx<'_, '_> {
-    /// A type or variable holds exactly one of the five type elements (which of them, in
-    /// the order `<Real>`, `<Integer>`, `<Boolean>`, `<String>`, `<Enumeration>`).
+    /// A type or variable holds exactly one type element; `present` says which of
+    /// `<Real>`, `<Integer>`, `<Boolean>`, `<String>` and `<Enumeration>` it holds.
     fn one_type_element(&self, present: [bool; 5]) -> Result<(), MdError> {
         let count = present.iter().filter(|&&b| b).count();
         if count == 1 {
