@@ -26,8 +26,10 @@ pub(crate) struct Loaded {
 
 /// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
 ///
-/// Instances keep the library loaded, so they may outlive the `Fmu` they came from.
-#[derive(Debug)]
+/// Instances keep the library loaded, so they may outlive the `Fmu` they came from. A clone
+/// is another handle to the same loaded library (as with `Arc`), whose instances share its
+/// process-wide state; opening the file again gives a separate copy.
+#[derive(Debug, Clone)]
 pub struct Fmu {
     path: PathBuf,
     md: ModelDescription,

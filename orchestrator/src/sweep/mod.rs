@@ -397,10 +397,11 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| {
+                let mut kept = Kept::default();
                 loop {
                     let slot = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = todo.get(slot) else { break };
-                    let result = run_case(spec, &plans[i], out, i, opts);
+                    let result = run_case(spec, &plans[i], out, i, opts, &mut kept);
                     if let Err(e) = result {
                         first_error
                             .lock()
@@ -437,6 +438,39 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     Ok(todo)
 }
 
+/// The FMUs a worker opened for its last case, kept for its next: opening one costs 6-7 ms
+/// and the controller builds its reference table once per loaded library, together a fifth
+/// of a one-trial case (BENCHMARKS.md, round 15). Each worker keeps its own, so no library is
+/// called from two threads. An FMU that may be instantiated only once per process is opened
+/// afresh for every case, and a failed case drops them all: an FMU's fmi2Fatal concerns
+/// every instance of its library.
+#[derive(Default)]
+struct Kept(Vec<Option<Fmu>>);
+
+impl Kept {
+    /// The FMUs at `paths`, in order: the one kept for a slot where it came from the same
+    /// file, else newly opened (an error names the file that failed).
+    fn fmus(&mut self, paths: &[&Path]) -> Result<Vec<Fmu>, (PathBuf, fmi2_import::ImportError)> {
+        self.0.resize(paths.len(), None);
+        let mut fmus = Vec::with_capacity(paths.len());
+        for (&path, kept) in paths.iter().zip(&mut self.0) {
+            if let Some(fmu) = kept.as_ref().filter(|k| k.path() == path) {
+                fmus.push(fmu.clone());
+                continue;
+            }
+            let fmu = Fmu::open(path).map_err(|e| (path.to_path_buf(), e))?;
+            let once = fmu
+                .model_description()
+                .co_simulation
+                .as_ref()
+                .is_some_and(|cs| cs.can_be_instantiated_only_once_per_process);
+            *kept = (!once).then(|| fmu.clone());
+            fmus.push(fmu);
+        }
+        Ok(fmus)
+    }
+}
+
 /// Runs one case as an ordinary campaign; an FMU failure ends the case as failed, not the sweep.
 fn run_case(
     spec: &SweepSpec,
@@ -444,16 +478,15 @@ fn run_case(
     out: &Path,
     i: usize,
     opts: &SweepOptions,
+    kept: &mut Kept,
 ) -> Result<(), SweepError> {
     let dir = case_dir(out, i);
-    let mut fmus = Vec::new();
-    for f in &scenario.fmus {
-        fmus.push(Fmu::open(&f.path).map_err(|e| SweepError::Fmu {
-            file: spec.source.clone(),
-            fmu: f.path.clone(),
-            message: e.to_string(),
-        })?);
-    }
+    let paths: Vec<&Path> = scenario.fmus.iter().map(|f| f.path.as_path()).collect();
+    let fmus = kept.fmus(&paths).map_err(|(fmu, e)| SweepError::Fmu {
+        file: spec.source.clone(),
+        fmu,
+        message: e.to_string(),
+    })?;
     let copts = CampaignOptions {
         out_dir: dir.clone(),
         resume: true,
@@ -466,7 +499,11 @@ fn run_case(
         crash_at: None,
         lanes: 1,
     };
-    let outcome = match run_campaign(scenario, text, fmus, &copts) {
+    let ran = run_campaign(scenario, text, fmus, &copts);
+    if ran.is_err() {
+        kept.0.clear();
+    }
+    let outcome = match ran {
         Ok(_) => "status = \"completed\"\n".to_string(),
         Err(CampaignError::Master(e)) => {
             format!("status = \"failed\"\nmessage = {:?}\n", e.to_string())
@@ -602,4 +639,87 @@ fn copy_tree(from: &Path, to: &Path) -> Result<(), SweepError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{Read, Write};
+
+    use super::*;
+
+    /// `$CKCM_FMU_DIR/<name>.fmu`, by default `<workspace>/target/fmu`, as `cargo xtask fmu`
+    /// builds it.
+    fn built(name: &str) -> PathBuf {
+        let dir = std::env::var_os("CKCM_FMU_DIR").map_or_else(
+            || Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"),
+            PathBuf::from,
+        );
+        let path = dir.join(format!("{name}.fmu"));
+        assert!(
+            path.is_file(),
+            "{} is missing: run `cargo xtask fmu`",
+            path.display()
+        );
+        path
+    }
+
+    fn dirs(fmus: &[Fmu]) -> Vec<PathBuf> {
+        fmus.iter()
+            .map(|f| f.unpacked_dir().to_path_buf())
+            .collect()
+    }
+
+    #[test]
+    fn a_worker_reuses_its_fmus_per_slot_and_reopens_a_changed_one() {
+        let (c, p) = (built("HlcsController"), built("CkcmPlant"));
+        let mut kept = Kept::default();
+        let first = dirs(&kept.fmus(&[&c, &p]).unwrap());
+        let again = dirs(&kept.fmus(&[&c, &p]).unwrap());
+        assert_eq!(first, again, "the second case runs on the same loaded FMUs");
+        // Another file in a slot is opened; the other slot keeps its FMU.
+        let f = built("ForeignOscillator");
+        let other = dirs(&kept.fmus(&[&f, &p]).unwrap());
+        assert_ne!(other[0], first[0]);
+        assert_eq!(other[1], first[1]);
+        // A failed case clears them: the next opens afresh.
+        kept.0.clear();
+        let fresh = dirs(&kept.fmus(&[&f, &p]).unwrap());
+        assert_ne!(fresh, other);
+    }
+
+    #[test]
+    fn an_fmu_instantiated_only_once_per_process_is_opened_for_every_case() {
+        let tmp = tempfile::tempdir().unwrap();
+        let once = tmp.path().join("Once.fmu");
+        let mut archive =
+            zip::ZipArchive::new(fs::File::open(built("HlcsController")).unwrap()).unwrap();
+        let mut out = zip::ZipWriter::new(fs::File::create(&once).unwrap());
+        for i in 0..archive.len() {
+            let mut entry = archive.by_index(i).unwrap();
+            let name = entry.name().unwrap().into_owned();
+            let mut data = Vec::new();
+            entry.read_to_end(&mut data).unwrap();
+            if name == "modelDescription.xml" {
+                let text = String::from_utf8(data).unwrap();
+                assert!(text.contains("<CoSimulation"), "{text}");
+                data = text
+                    .replacen(
+                        "<CoSimulation",
+                        "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\"",
+                        1,
+                    )
+                    .into_bytes();
+            }
+            out.start_file(name, zip::write::SimpleFileOptions::default())
+                .unwrap();
+            out.write_all(&data).unwrap();
+        }
+        out.finish().unwrap();
+        let p = built("CkcmPlant");
+        let mut kept = Kept::default();
+        let first = dirs(&kept.fmus(&[&once, &p]).unwrap());
+        let again = dirs(&kept.fmus(&[&once, &p]).unwrap());
+        assert_ne!(first[0], again[0], "a once-per-process FMU is opened again");
+        assert_eq!(first[1], again[1]);
+    }
 }
