@@ -439,8 +439,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
 }
 
 /// The FMUs a worker opened for its last case, kept for its next: opening one costs 6-7 ms
-/// and the controller builds its reference table once per loaded library, together a fifth
-/// of a one-trial case (BENCHMARKS.md, round 15). Each worker keeps its own, so no library is
+/// and the controller builds its reference table once per loaded library; reusing them cut
+/// a one-trial case by a quarter (BENCHMARKS.md, round 15). Each worker keeps its own, so no library is
 /// called from two threads. An FMU that may be instantiated only once per process is opened
 /// afresh for every case, and a failed case drops them all: an FMU's fmi2Fatal concerns
 /// every instance of its library.
