@@ -440,21 +440,34 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
 
 /// The FMUs a worker opened for its last case, kept for its next: opening one costs 6-7 ms
 /// and the controller builds its reference table once per loaded library; reusing them cut
-/// a one-trial case by a quarter (BENCHMARKS.md, round 15). Each worker keeps its own, so no library is
-/// called from two threads. An FMU that may be instantiated only once per process is opened
-/// afresh for every case, and a failed case drops them all: an FMU's fmi2Fatal concerns
-/// every instance of its library.
+/// a one-trial case by a quarter (BENCHMARKS.md, round 15). Each worker keeps its own, so
+/// no library is called from two threads. An FMU that may be instantiated only once per
+/// process is opened afresh for every case, and so is one whose file changed since (each
+/// case's fingerprint reads the file); a failed case drops them all, as an FMU's fmi2Fatal
+/// concerns every instance of its library.
 #[derive(Default)]
-struct Kept(Vec<Option<Fmu>>);
+struct Kept(Vec<Option<(Fmu, FileStamp)>>);
+
+/// A file's size and modification time, to notice that it was replaced.
+type FileStamp = (u64, Option<std::time::SystemTime>);
+
+fn stamp(path: &Path) -> Option<FileStamp> {
+    let meta = fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()))
+}
 
 impl Kept {
-    /// The FMUs at `paths`, in order: the one kept for a slot where it came from the same
-    /// file, else newly opened (an error names the file that failed).
+    /// The FMUs at `paths`, in order: the one kept for a slot where it came from the same,
+    /// unchanged file, else newly opened (an error names the file that failed).
     fn fmus(&mut self, paths: &[&Path]) -> Result<Vec<Fmu>, (PathBuf, fmi2_import::ImportError)> {
         self.0.resize(paths.len(), None);
         let mut fmus = Vec::with_capacity(paths.len());
         for (&path, kept) in paths.iter().zip(&mut self.0) {
-            if let Some(fmu) = kept.as_ref().filter(|k| k.path() == path) {
+            let now = stamp(path);
+            if let Some((fmu, _)) = kept
+                .as_ref()
+                .filter(|(k, then)| k.path() == path && Some(*then) == now)
+            {
                 fmus.push(fmu.clone());
                 continue;
             }
@@ -464,7 +477,7 @@ impl Kept {
                 .co_simulation
                 .as_ref()
                 .is_some_and(|cs| cs.can_be_instantiated_only_once_per_process);
-            *kept = (!once).then(|| fmu.clone());
+            *kept = now.filter(|_| !once).map(|now| (fmu.clone(), now));
             fmus.push(fmu);
         }
         Ok(fmus)
@@ -681,6 +694,18 @@ mod tests {
         let other = dirs(&kept.fmus(&[&f, &p]).unwrap());
         assert_ne!(other[0], first[0]);
         assert_eq!(other[1], first[1]);
+        // A replaced file is opened again (the copy keeps the name, not the time).
+        let tmp = tempfile::tempdir().unwrap();
+        let copy = tmp.path().join("Plant.fmu");
+        fs::copy(&p, &copy).unwrap();
+        let before = dirs(&kept.fmus(&[&f, &copy]).unwrap());
+        let file = fs::File::options().append(true).open(&copy).unwrap();
+        file.set_modified(std::time::SystemTime::now() + std::time::Duration::from_secs(5))
+            .unwrap();
+        drop(file);
+        let after = dirs(&kept.fmus(&[&f, &copy]).unwrap());
+        assert_eq!(before[0], after[0]);
+        assert_ne!(before[1], after[1], "a replaced FMU file is opened again");
         // A failed case clears them: the next opens afresh.
         kept.0.clear();
         let fresh = dirs(&kept.fmus(&[&f, &p]).unwrap());
