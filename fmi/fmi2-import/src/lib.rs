@@ -14,6 +14,7 @@ mod extract;
 mod fmu;
 mod functions;
 mod instance;
+mod kept;
 mod logger;
 
 pub use error::ImportError;
@@ -22,4 +23,5 @@ pub use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION, Status};
 pub use fmu::{DEFAULT_MAX_UNPACKED_MIB, Fmu, MAX_UNPACKED_VAR, file_uri};
 pub use functions::SYMBOLS;
 pub use instance::{FmuState, Instance};
+pub use kept::KeptFmus;
 pub use logger::{LogRecord, MAX_LOG_RECORDS};

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use fmi2_import::Fmu;
+use fmi2_import::{Fmu, KeptFmus};
 use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
@@ -397,7 +397,9 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| {
-                let mut kept = Kept::default();
+                // Kept from case to case: opening the FMUs and the controller's reference
+                // table cost a one-trial case a quarter of its time (BENCHMARKS.md, round 15).
+                let mut kept = KeptFmus::default();
                 loop {
                     let slot = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = todo.get(slot) else { break };
@@ -438,52 +440,6 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     Ok(todo)
 }
 
-/// The FMUs a worker opened for its last case, kept for its next: opening one costs 6-7 ms
-/// and the controller builds its reference table once per loaded library; reusing them cut
-/// a one-trial case by a quarter (BENCHMARKS.md, round 15). Each worker keeps its own, so
-/// no library is called from two threads. An FMU that may be instantiated only once per
-/// process is opened afresh for every case, and so is one whose file changed since (each
-/// case's fingerprint reads the file); a failed case drops them all, as an FMU's fmi2Fatal
-/// concerns every instance of its library.
-#[derive(Default)]
-struct Kept(Vec<Option<(Fmu, FileStamp)>>);
-
-/// A file's size and modification time, to notice that it was replaced.
-type FileStamp = (u64, Option<std::time::SystemTime>);
-
-fn stamp(path: &Path) -> Option<FileStamp> {
-    let meta = fs::metadata(path).ok()?;
-    Some((meta.len(), meta.modified().ok()))
-}
-
-impl Kept {
-    /// The FMUs at `paths`, in order: the one kept for a slot where it came from the same,
-    /// unchanged file, else newly opened (an error names the file that failed).
-    fn fmus(&mut self, paths: &[&Path]) -> Result<Vec<Fmu>, (PathBuf, fmi2_import::ImportError)> {
-        self.0.resize(paths.len(), None);
-        let mut fmus = Vec::with_capacity(paths.len());
-        for (&path, kept) in paths.iter().zip(&mut self.0) {
-            let now = stamp(path);
-            if let Some((fmu, _)) = kept
-                .as_ref()
-                .filter(|(k, then)| k.path() == path && Some(*then) == now)
-            {
-                fmus.push(fmu.clone());
-                continue;
-            }
-            let fmu = Fmu::open(path).map_err(|e| (path.to_path_buf(), e))?;
-            let once = fmu
-                .model_description()
-                .co_simulation
-                .as_ref()
-                .is_some_and(|cs| cs.can_be_instantiated_only_once_per_process);
-            *kept = now.filter(|_| !once).map(|now| (fmu.clone(), now));
-            fmus.push(fmu);
-        }
-        Ok(fmus)
-    }
-}
-
 /// Runs one case as an ordinary campaign; an FMU failure ends the case as failed, not the sweep.
 fn run_case(
     spec: &SweepSpec,
@@ -491,15 +447,17 @@ fn run_case(
     out: &Path,
     i: usize,
     opts: &SweepOptions,
-    kept: &mut Kept,
+    kept: &mut KeptFmus,
 ) -> Result<(), SweepError> {
     let dir = case_dir(out, i);
-    let paths: Vec<&Path> = scenario.fmus.iter().map(|f| f.path.as_path()).collect();
-    let fmus = kept.fmus(&paths).map_err(|(fmu, e)| SweepError::Fmu {
-        file: spec.source.clone(),
-        fmu,
-        message: e.to_string(),
-    })?;
+    let mut fmus = Vec::with_capacity(scenario.fmus.len());
+    for (slot, f) in scenario.fmus.iter().enumerate() {
+        fmus.push(kept.open(slot, &f.path).map_err(|e| SweepError::Fmu {
+            file: spec.source.clone(),
+            fmu: f.path.clone(),
+            message: e.to_string(),
+        })?);
+    }
     let copts = CampaignOptions {
         out_dir: dir.clone(),
         resume: true,
@@ -514,7 +472,7 @@ fn run_case(
     };
     let ran = run_campaign(scenario, text, fmus, &copts);
     if ran.is_err() {
-        kept.0.clear();
+        kept.clear();
     }
     let outcome = match ran {
         Ok(_) => "status = \"completed\"\n".to_string(),
@@ -652,99 +610,4 @@ fn copy_tree(from: &Path, to: &Path) -> Result<(), SweepError> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use std::io::{Read, Write};
-
-    use super::*;
-
-    /// `$CKCM_FMU_DIR/<name>.fmu`, by default `<workspace>/target/fmu`, as `cargo xtask fmu`
-    /// builds it.
-    fn built(name: &str) -> PathBuf {
-        let dir = std::env::var_os("CKCM_FMU_DIR").map_or_else(
-            || Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"),
-            PathBuf::from,
-        );
-        let path = dir.join(format!("{name}.fmu"));
-        assert!(
-            path.is_file(),
-            "{} is missing: run `cargo xtask fmu`",
-            path.display()
-        );
-        path
-    }
-
-    fn dirs(fmus: &[Fmu]) -> Vec<PathBuf> {
-        fmus.iter()
-            .map(|f| f.unpacked_dir().to_path_buf())
-            .collect()
-    }
-
-    #[test]
-    fn a_worker_reuses_its_fmus_per_slot_and_reopens_a_changed_one() {
-        let (c, p) = (built("HlcsController"), built("CkcmPlant"));
-        let mut kept = Kept::default();
-        let first = dirs(&kept.fmus(&[&c, &p]).unwrap());
-        let again = dirs(&kept.fmus(&[&c, &p]).unwrap());
-        assert_eq!(first, again, "the second case runs on the same loaded FMUs");
-        // Another file in a slot is opened; the other slot keeps its FMU.
-        let f = built("ForeignOscillator");
-        let other = dirs(&kept.fmus(&[&f, &p]).unwrap());
-        assert_ne!(other[0], first[0]);
-        assert_eq!(other[1], first[1]);
-        // A replaced file is opened again (the copy keeps the name, not the time).
-        let tmp = tempfile::tempdir().unwrap();
-        let copy = tmp.path().join("Plant.fmu");
-        fs::copy(&p, &copy).unwrap();
-        let before = dirs(&kept.fmus(&[&f, &copy]).unwrap());
-        let file = fs::File::options().append(true).open(&copy).unwrap();
-        file.set_modified(std::time::SystemTime::now() + std::time::Duration::from_secs(5))
-            .unwrap();
-        drop(file);
-        let after = dirs(&kept.fmus(&[&f, &copy]).unwrap());
-        assert_eq!(before[0], after[0]);
-        assert_ne!(before[1], after[1], "a replaced FMU file is opened again");
-        // A failed case clears them: the next opens afresh.
-        kept.0.clear();
-        let fresh = dirs(&kept.fmus(&[&f, &p]).unwrap());
-        assert_ne!(fresh, other);
-    }
-
-    #[test]
-    fn an_fmu_instantiated_only_once_per_process_is_opened_for_every_case() {
-        let tmp = tempfile::tempdir().unwrap();
-        let once = tmp.path().join("Once.fmu");
-        let mut archive =
-            zip::ZipArchive::new(fs::File::open(built("HlcsController")).unwrap()).unwrap();
-        let mut out = zip::ZipWriter::new(fs::File::create(&once).unwrap());
-        for i in 0..archive.len() {
-            let mut entry = archive.by_index(i).unwrap();
-            let name = entry.name().unwrap().into_owned();
-            let mut data = Vec::new();
-            entry.read_to_end(&mut data).unwrap();
-            if name == "modelDescription.xml" {
-                let text = String::from_utf8(data).unwrap();
-                assert!(text.contains("<CoSimulation"), "{text}");
-                data = text
-                    .replacen(
-                        "<CoSimulation",
-                        "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\"",
-                        1,
-                    )
-                    .into_bytes();
-            }
-            out.start_file(name, zip::write::SimpleFileOptions::default())
-                .unwrap();
-            out.write_all(&data).unwrap();
-        }
-        out.finish().unwrap();
-        let p = built("CkcmPlant");
-        let mut kept = Kept::default();
-        let first = dirs(&kept.fmus(&[&once, &p]).unwrap());
-        let again = dirs(&kept.fmus(&[&once, &p]).unwrap());
-        assert_ne!(first[0], again[0], "a once-per-process FMU is opened again");
-        assert_eq!(first[1], again[1]);
-    }
 }
