@@ -158,9 +158,7 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, MdError> {
                     message: p.message.clone(),
                 },
             ),
-            None => pos
-                .second(&e.to_string())
-                .unwrap_or_else(|| MdError::new(None, MdErrorKind::Xml(e.to_string()))),
+            None => MdError::new(None, MdErrorKind::Xml(e.to_string())),
         }
     })?;
     convert(raw, &pos, schema_problems)

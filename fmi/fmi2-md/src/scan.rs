@@ -51,28 +51,6 @@ impl<'a> Positions<'a> {
         self.offset(key, i).map(|o| self.line_at(o))
     }
 
-    /// serde's "duplicate field `X`" (a second `<CoSimulation>`, which the schema's
-    /// structure allows) as an error at the second `<X>`'s line.
-    pub(super) fn second(&self, serde_message: &str) -> Option<MdError> {
-        let name = serde_message
-            .strip_prefix("duplicate field `")?
-            .strip_suffix('`')?;
-        let (key, at) = self
-            .starts
-            .iter()
-            .filter(|(key, _)| key.rsplit('/').next() == Some(name))
-            .filter_map(|(key, at)| Some((key, *at.get(1)?)))
-            .min_by_key(|&(_, at)| at)?;
-        let parent = key.rsplit_once('/').map_or("", |(parent, _)| parent);
-        Some(MdError::new(
-            Some(self.line_at(at)),
-            MdErrorKind::InvalidElement {
-                element: parent.to_owned(),
-                message: format!("a second <{name}>; there may be only one"),
-            },
-        ))
-    }
-
     /// Line of `attribute` in the start tag between these offsets, else the tag's first.
     fn attribute_line(&self, start: usize, end: usize, attribute: &str) -> usize {
         let tag = self.xml.get(start..end).unwrap_or("");
@@ -188,6 +166,7 @@ pub(super) fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         MdErrorKind::Xml(format!("second root element <{name}>")),
                     ));
                 }
+                let depth = stack.len();
                 let (parent, place) = match stack.last_mut() {
                     Some((p, _, place)) => (p.as_str(), place),
                     None => ("", &mut document),
@@ -239,11 +218,23 @@ pub(super) fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
                         );
                     }
                 }
-                positions
+                let starts = positions
                     .starts
                     .entry(format!("{parent}/{name}"))
-                    .or_default()
-                    .push(before);
+                    .or_default();
+                starts.push(before);
+                // The schema repeats the pair of implementations, so it allows a second
+                // <CoSimulation>; a description holds one of each.
+                if starts.len() == 2
+                    && depth == 1
+                    && matches!(name.as_str(), "CoSimulation" | "ModelExchange")
+                {
+                    reports.push(
+                        positions.line_at(before),
+                        parent,
+                        format!("a second <{name}>; there may be only one"),
+                    );
+                }
                 root.get_or_insert_with(|| name.clone());
                 let place = Place::new(content);
                 if matches!(event, Event::Start(_)) {

@@ -447,7 +447,7 @@ fn order_and_counts_follow_the_schema() {
     );
 
     // Two <CoSimulation> pass the schema's structure (it repeats the pair of
-    // implementations) but not the typed parse, which names the second one's line.
+    // implementations); the streaming pass refuses the second at its line.
     let twice = edited(&[(
         "  <UnitDefinitions>\n",
         "  <CoSimulation modelIdentifier=\"Other\"/>\n  <UnitDefinitions>\n",
