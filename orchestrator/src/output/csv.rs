@@ -6,6 +6,7 @@
 use std::fs::File;
 use std::io::{self, BufReader, Write};
 use std::path::Path;
+use std::sync::mpsc::sync_channel;
 
 use ::csv::{ErrorKind, ReaderBuilder, StringRecord, Writer};
 
@@ -108,23 +109,90 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
 /// `-`, `e`, `NaN`, `inf`), so the rows are assembled here rather than field by field
 /// through the `csv` crate, whose per-field quoting scan cost as much as formatting the
 /// numbers (BENCHMARKS.md, round 9); the bytes are the same.
+///
+/// Blocks of [`BLOCK_ROWS`] rows are formatted on as many threads as there are cores and
+/// written in order: a campaign's last recorded trial is formatted after every trial has
+/// run, when the other cores have nothing left to do, and its formatting was most of the
+/// time between the last trial's end and the run's (BENCHMARKS.md, round 16). At most two
+/// formatted blocks wait per helper thread, so the memory does not grow with the trial.
 fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    write_number_rows_on(rec, w, cores)
+}
+
+/// [`write_number_rows`] on at most `threads` threads (the caller's among them).
+fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> io::Result<()> {
+    let blocks = rec.len().div_ceil(BLOCK_ROWS);
+    let threads = threads.min(blocks);
+    if threads <= 1 {
+        let mut bytes = Vec::with_capacity(1 << 16);
+        for block in 0..blocks {
+            format_block(rec, block, &mut bytes);
+            w.write_all(&bytes)?;
+            bytes.clear();
+        }
+        return w.flush();
+    }
+    std::thread::scope(|scope| {
+        // Helper h formats blocks h, h + threads, … and sends them in that order; this thread
+        // formats the blocks ≡ 0 (mod threads) and writes every block in file order. An
+        // error here drops the receivers, which ends the helpers at their next send.
+        let helpers: Vec<_> = (1..threads)
+            .map(|h| {
+                let (full, filled) = sync_channel::<Vec<u8>>(2);
+                let (give_back, returned) = sync_channel::<Vec<u8>>(3);
+                scope.spawn(move || {
+                    for block in (h..blocks).step_by(threads) {
+                        let mut bytes = returned.try_recv().unwrap_or_default();
+                        bytes.clear();
+                        format_block(rec, block, &mut bytes);
+                        if full.send(bytes).is_err() {
+                            return;
+                        }
+                    }
+                });
+                (filled, give_back)
+            })
+            .collect();
+        let mut own = Vec::with_capacity(1 << 16);
+        for block in 0..blocks {
+            match block % threads {
+                0 => {
+                    own.clear();
+                    format_block(rec, block, &mut own);
+                    w.write_all(&own)?;
+                }
+                h => {
+                    let (filled, give_back) = &helpers[h - 1];
+                    let bytes = filled
+                        .recv()
+                        .map_err(|_| io::Error::other("a CSV formatting thread stopped"))?;
+                    w.write_all(&bytes)?;
+                    let _ = give_back.try_send(bytes);
+                }
+            }
+        }
+        w.flush()
+    })
+}
+
+/// Rows per block of [`write_number_rows`]: about 0.6 MB of text for the 31 numbers per row of
+/// the shipped scenarios.
+const BLOCK_ROWS: usize = 1024;
+
+/// Appends the text of rows `block * BLOCK_ROWS ..` (at most [`BLOCK_ROWS`] of them) to `bytes`.
+fn format_block(rec: &Recording, block: usize, bytes: &mut Vec<u8>) {
     let mut numbers = Numbers::default();
-    let mut bytes: Vec<u8> = Vec::with_capacity(1 << 16);
-    for (row, &t) in rec.time.iter().enumerate() {
-        bytes.extend_from_slice(numbers.format(t).as_bytes());
+    let start = block * BLOCK_ROWS;
+    let end = (start + BLOCK_ROWS).min(rec.len());
+    for row in start..end {
+        bytes.extend_from_slice(numbers.format(rec.time[row]).as_bytes());
         for column in &rec.columns {
             bytes.push(b',');
             bytes.extend_from_slice(numbers.format(column[row]).as_bytes());
         }
         bytes.push(b'\n');
-        if bytes.len() > (1 << 16) - 1024 {
-            w.write_all(&bytes)?;
-            bytes.clear();
-        }
     }
-    w.write_all(&bytes)?;
-    w.flush()
 }
 
 /// Numbers in the shortest form that parses back to the identical `f64`: positional notation
@@ -572,6 +640,48 @@ mod tests {
             let mut ours = Vec::new();
             CsvExporter.write(rec, &mut ours).unwrap();
             assert!(ours == oracle(rec), "{} columns", rec.names.len());
+        }
+        // The same bytes on any number of formatting threads: 20 blocks, the last one short,
+        // dealt to 1, 2, 3, 7 and more threads than blocks.
+        let expected = oracle(&wide);
+        let header = expected.iter().position(|&b| b == b'\n').unwrap() + 1;
+        for threads in [1, 2, 3, 7, 64] {
+            let mut rows = Vec::new();
+            write_number_rows_on(&wide, &mut rows, threads).unwrap();
+            assert!(rows == expected[header..], "{threads} threads");
+        }
+    }
+
+    /// A sink that fails part-way stops the formatting threads and reports its error, on one
+    /// thread and on several, wherever in the file it fails.
+    #[test]
+    fn a_failing_sink_stops_the_formatting_threads() {
+        struct FailsAfter(usize);
+        impl Write for FailsAfter {
+            fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+                if buf.len() > self.0 {
+                    return Err(io::Error::other("disk full"));
+                }
+                self.0 -= buf.len();
+                Ok(buf.len())
+            }
+            fn flush(&mut self) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        let mut rec = Recording::with_capacity(vec!["a".into(), "b".into()], 0);
+        for i in 0..10_000 {
+            let x = f64::from(i) * 0.1;
+            rec.push_row(x * 1e-2, &[x.sin(), x.cos()]);
+        }
+        let mut all = Vec::new();
+        write_number_rows_on(&rec, &mut all, 1).unwrap();
+        for threads in [1, 2, 4] {
+            for fail_at in [0, 1, all.len() / 3, all.len() - 1] {
+                let err = write_number_rows_on(&rec, &mut FailsAfter(fail_at), threads)
+                    .expect_err("the sink failed");
+                assert_eq!(err.to_string(), "disk full", "{threads} threads");
+            }
         }
     }
 }
