@@ -110,15 +110,19 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
 /// through the `csv` crate, whose per-field quoting scan cost as much as formatting the
 /// numbers (BENCHMARKS.md, round 9); the bytes are the same.
 ///
-/// Blocks of [`BLOCK_ROWS`] rows are formatted on as many threads as there are cores and
+/// Blocks of [`BLOCK_ROWS`] rows are formatted on up to [`MOST_FORMAT_THREADS`] cores and
 /// written in order: a campaign's last recorded trial is formatted after every trial has
 /// run, when the other cores have nothing left to do, and its formatting was most of the
 /// time between the last trial's end and the run's (BENCHMARKS.md, round 16). At most two
 /// formatted blocks wait per helper thread, so the memory does not grow with the trial.
 fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    write_number_rows_on(rec, w, cores)
+    write_number_rows_on(rec, w, cores.min(MOST_FORMAT_THREADS))
 }
+
+/// At most this many threads format one file: a sweep on a large machine runs a writer per
+/// job, and a trial's 15 blocks gain little from more, since the writes stay sequential.
+const MOST_FORMAT_THREADS: usize = 4;
 
 /// [`write_number_rows`] on at most `threads` threads (the caller's among them).
 fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> io::Result<()> {
