@@ -115,6 +115,8 @@ const EARLY_SYNC_BYTES: u64 = 2 << 20;
 struct EarlySync<'scope, 'env> {
     file: File,
     since_sync: u64,
+    /// Set once a helper could not be started: no further attempts.
+    no_helper: bool,
     scope: &'scope std::thread::Scope<'scope, 'env>,
     helper: Option<(
         std::sync::mpsc::SyncSender<()>,
@@ -127,30 +129,38 @@ impl<'scope, 'env> EarlySync<'scope, 'env> {
         Self {
             file,
             since_sync: 0,
+            no_helper: false,
             scope,
             helper: None,
         }
     }
 
     /// Asks the helper to sync what is written so far; a request still pending covers it.
-    fn request_sync(&mut self) -> io::Result<()> {
-        if self.helper.is_none() {
-            let copy = self.file.try_clone()?;
+    /// Where no helper can be had (no second handle, or the system refuses a thread), the
+    /// file is written without early syncs: the final sync makes it just as durable.
+    fn request_sync(&mut self) {
+        if self.helper.is_none() && !self.no_helper {
             let (ask, asked) = std::sync::mpsc::sync_channel::<()>(1);
-            let helper = self.scope.spawn(move || {
-                while asked.recv().is_ok() {
-                    copy.sync_data()?;
-                }
-                Ok(())
+            let started = self.file.try_clone().and_then(|copy| {
+                std::thread::Builder::new()
+                    .name("early-sync".into())
+                    .spawn_scoped(self.scope, move || {
+                        while asked.recv().is_ok() {
+                            copy.sync_data()?;
+                        }
+                        Ok(())
+                    })
             });
-            self.helper = Some((ask, helper));
+            match started {
+                Ok(helper) => self.helper = Some((ask, helper)),
+                Err(_) => self.no_helper = true,
+            }
         }
         if let Some((ask, _)) = &self.helper {
             // Full: a sync not yet started will cover these bytes. Disconnected: the helper
             // failed, and `finish` reports why.
             let _ = ask.try_send(());
         }
-        Ok(())
     }
 
     /// Waits for the helper and returns the file, or the helper's error: a failed sync is
@@ -172,7 +182,7 @@ impl Write for EarlySync<'_, '_> {
         self.since_sync += n as u64;
         if self.since_sync >= EARLY_SYNC_BYTES {
             self.since_sync = 0;
-            self.request_sync()?;
+            self.request_sync();
         }
         Ok(n)
     }

@@ -127,37 +127,34 @@ const MOST_FORMAT_THREADS: usize = 4;
 /// [`write_number_rows`] on at most `threads` threads (the caller's among them).
 fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> io::Result<()> {
     let blocks = rec.len().div_ceil(BLOCK_ROWS);
-    let threads = threads.min(blocks);
-    if threads <= 1 {
-        let mut bytes = Vec::with_capacity(1 << 16);
-        for block in 0..blocks {
-            format_block(rec, block, &mut bytes);
-            w.write_all(&bytes)?;
-            bytes.clear();
-        }
-        return w.flush();
-    }
+    let threads = threads.min(blocks).max(1);
     std::thread::scope(|scope| {
         // Helper h formats blocks h, h + threads, … and sends them in that order; this thread
         // formats the blocks ≡ 0 (mod threads) and writes every block in file order. An
-        // error here drops the receivers, which ends the helpers at their next send.
-        let helpers: Vec<_> = (1..threads)
+        // error here drops the receivers, which ends the helpers at their next send. Where the
+        // system refuses a thread (a user's process limit), this thread formats every block;
+        // the helpers already started end the same way.
+        let helpers = (1..threads)
             .map(|h| {
                 let (full, filled) = sync_channel::<Vec<u8>>(2);
                 let (give_back, returned) = sync_channel::<Vec<u8>>(3);
-                scope.spawn(move || {
-                    for block in (h..blocks).step_by(threads) {
-                        let mut bytes = returned.try_recv().unwrap_or_default();
-                        bytes.clear();
-                        format_block(rec, block, &mut bytes);
-                        if full.send(bytes).is_err() {
-                            return;
+                std::thread::Builder::new()
+                    .name("csv-format".into())
+                    .spawn_scoped(scope, move || {
+                        for block in (h..blocks).step_by(threads) {
+                            let mut bytes = returned.try_recv().unwrap_or_default();
+                            bytes.clear();
+                            format_block(rec, block, &mut bytes);
+                            if full.send(bytes).is_err() {
+                                return;
+                            }
                         }
-                    }
-                });
-                (filled, give_back)
+                    })
+                    .map(|_| (filled, give_back))
             })
-            .collect();
+            .collect::<io::Result<Vec<_>>>()
+            .unwrap_or_default();
+        let threads = helpers.len() + 1;
         let mut own = Vec::with_capacity(1 << 16);
         for block in 0..blocks {
             match block % threads {
