@@ -110,7 +110,8 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
 /// through the `csv` crate, whose per-field quoting scan cost as much as formatting the
 /// numbers (BENCHMARKS.md, round 9); the bytes are the same.
 ///
-/// Blocks of [`BLOCK_ROWS`] rows are formatted on up to [`MOST_FORMAT_THREADS`] cores and
+/// Blocks of rows (about [`BLOCK_NUMBERS`] numbers each) are formatted on up to
+/// [`MOST_FORMAT_THREADS`] cores and
 /// written in order: a campaign's last recorded trial is formatted after every trial has
 /// run, when the other cores have nothing left to do, and its formatting was most of the
 /// time between the last trial's end and the run's (BENCHMARKS.md, round 16). At most two
@@ -126,7 +127,8 @@ const MOST_FORMAT_THREADS: usize = 4;
 
 /// [`write_number_rows`] on at most `threads` threads (the caller's among them).
 fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> io::Result<()> {
-    let blocks = rec.len().div_ceil(BLOCK_ROWS);
+    let rows = block_rows(rec);
+    let blocks = rec.len().div_ceil(rows);
     let threads = threads.min(blocks).max(1);
     std::thread::scope(|scope| {
         // Helper h formats blocks h, h + threads, … and sends them in that order; this thread
@@ -144,7 +146,7 @@ fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> i
                         for block in (h..blocks).step_by(threads) {
                             let mut bytes = returned.try_recv().unwrap_or_default();
                             bytes.clear();
-                            format_block(rec, block, &mut bytes);
+                            format_block(rec, block * rows, rows, &mut bytes);
                             if full.send(bytes).is_err() {
                                 return;
                             }
@@ -160,7 +162,7 @@ fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> i
             match block % threads {
                 0 => {
                     own.clear();
-                    format_block(rec, block, &mut own);
+                    format_block(rec, block * rows, rows, &mut own);
                     w.write_all(&own)?;
                 }
                 h => {
@@ -177,15 +179,19 @@ fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> i
     })
 }
 
-/// Rows per block of [`write_number_rows`]: about 0.6 MB of text for the 31 numbers per row of
-/// the shipped scenarios.
-const BLOCK_ROWS: usize = 1024;
+/// Numbers per block of [`write_number_rows`]: at most 24 bytes each, so a block's text stays
+/// under 0.8 MB however wide the recording (1,057 rows of the shipped scenarios' 31 numbers).
+const BLOCK_NUMBERS: usize = 1 << 15;
 
-/// Appends the text of rows `block * BLOCK_ROWS ..` (at most [`BLOCK_ROWS`] of them) to `bytes`.
-fn format_block(rec: &Recording, block: usize, bytes: &mut Vec<u8>) {
+/// Rows per block of `rec`: [`BLOCK_NUMBERS`] numbers, at least one row.
+fn block_rows(rec: &Recording) -> usize {
+    (BLOCK_NUMBERS / (rec.columns.len() + 1)).max(1)
+}
+
+/// Appends the text of at most `rows` rows from row `start` on to `bytes`.
+fn format_block(rec: &Recording, start: usize, rows: usize, bytes: &mut Vec<u8>) {
     let mut numbers = Numbers::default();
-    let start = block * BLOCK_ROWS;
-    let end = (start + BLOCK_ROWS).min(rec.len());
+    let end = (start + rows).min(rec.len());
     for row in start..end {
         bytes.extend_from_slice(numbers.format(rec.time[row]).as_bytes());
         for column in &rec.columns {
@@ -642,8 +648,10 @@ mod tests {
             CsvExporter.write(rec, &mut ours).unwrap();
             assert!(ours == oracle(rec), "{} columns", rec.names.len());
         }
-        // The same bytes on any number of formatting threads: 20 blocks, the last one short,
-        // dealt to 1, 2, 3, 7 and more threads than blocks.
+        // The same bytes on any number of formatting threads: 20,000 rows of four numbers are
+        // 3 blocks of 8,192 rows, the last one short, dealt to 1, 2, 3, 7 and more threads
+        // than blocks.
+        assert_eq!(wide.len().div_ceil(block_rows(&wide)), 3);
         let expected = oracle(&wide);
         let header = expected.iter().position(|&b| b == b'\n').unwrap() + 1;
         for threads in [1, 2, 3, 7, 64] {
@@ -670,11 +678,15 @@ mod tests {
                 Ok(())
             }
         }
-        let mut rec = Recording::with_capacity(vec!["a".into(), "b".into()], 0);
+        // 16 columns: 1,927 rows per block, six blocks.
+        let names = (0..16).map(|c| format!("c{c}")).collect();
+        let mut rec = Recording::with_capacity(names, 0);
         for i in 0..10_000 {
             let x = f64::from(i) * 0.1;
-            rec.push_row(x * 1e-2, &[x.sin(), x.cos()]);
+            let row: Vec<f64> = (0..16).map(|c| (x + f64::from(c)).sin()).collect();
+            rec.push_row(x * 1e-2, &row);
         }
+        assert_eq!(rec.len().div_ceil(block_rows(&rec)), 6);
         let mut all = Vec::new();
         write_number_rows_on(&rec, &mut all, 1).unwrap();
         for threads in [1, 2, 4] {
