@@ -115,13 +115,22 @@ const EARLY_SYNC_BYTES: u64 = 2 << 20;
 struct EarlySync<'scope, 'env> {
     file: File,
     since_sync: u64,
-    /// Set once a helper could not be started: no further attempts.
-    no_helper: bool,
     scope: &'scope std::thread::Scope<'scope, 'env>,
-    helper: Option<(
+    helper: Helper<'scope>,
+}
+
+/// The thread of an [`EarlySync`] file.
+enum Helper<'scope> {
+    /// Not needed yet: less than [`EARLY_SYNC_BYTES`] written.
+    NotStarted,
+    /// Asked through the sender; its result says whether every sync succeeded.
+    Running(
         std::sync::mpsc::SyncSender<()>,
         std::thread::ScopedJoinHandle<'scope, io::Result<()>>,
-    )>,
+    ),
+    /// No second handle or no thread could be had: the file goes without early syncs, and
+    /// the final sync makes it just as durable.
+    Unavailable,
 }
 
 impl<'scope, 'env> EarlySync<'scope, 'env> {
@@ -129,17 +138,14 @@ impl<'scope, 'env> EarlySync<'scope, 'env> {
         Self {
             file,
             since_sync: 0,
-            no_helper: false,
             scope,
-            helper: None,
+            helper: Helper::NotStarted,
         }
     }
 
     /// Asks the helper to sync what is written so far; a request still pending covers it.
-    /// Where no helper can be had (no second handle, or the system refuses a thread), the
-    /// file is written without early syncs: the final sync makes it just as durable.
     fn request_sync(&mut self) {
-        if self.helper.is_none() && !self.no_helper {
+        if matches!(self.helper, Helper::NotStarted) {
             let (ask, asked) = std::sync::mpsc::sync_channel::<()>(1);
             let started = self.file.try_clone().and_then(|copy| {
                 std::thread::Builder::new()
@@ -151,12 +157,12 @@ impl<'scope, 'env> EarlySync<'scope, 'env> {
                         Ok(())
                     })
             });
-            match started {
-                Ok(helper) => self.helper = Some((ask, helper)),
-                Err(_) => self.no_helper = true,
-            }
+            self.helper = match started {
+                Ok(thread) => Helper::Running(ask, thread),
+                Err(_) => Helper::Unavailable,
+            };
         }
-        if let Some((ask, _)) = &self.helper {
+        if let Helper::Running(ask, _) = &self.helper {
             // Full: a sync not yet started will cover these bytes. Disconnected: the helper
             // failed, and `finish` reports why.
             let _ = ask.try_send(());
@@ -165,10 +171,10 @@ impl<'scope, 'env> EarlySync<'scope, 'env> {
 
     /// Waits for the helper and returns the file, or the helper's error: a failed sync is
     /// reported to one file handle only, so it must not be lost with the helper's.
-    fn finish(mut self) -> io::Result<File> {
-        if let Some((ask, helper)) = self.helper.take() {
+    fn finish(self) -> io::Result<File> {
+        if let Helper::Running(ask, thread) = self.helper {
             drop(ask);
-            helper
+            thread
                 .join()
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
         }
@@ -346,7 +352,7 @@ mod tests {
             let null = || OpenOptions::new().write(true).open("/dev/null").unwrap();
             let mut small = EarlySync::new(null(), scope);
             small.write_all(&[0; 1000]).unwrap();
-            assert!(small.helper.is_none());
+            assert!(matches!(small.helper, Helper::NotStarted));
             small.finish().unwrap();
 
             let mut large = EarlySync::new(null(), scope);
@@ -354,7 +360,7 @@ mod tests {
             for _ in 0..3 * EARLY_SYNC_BYTES / (1 << 20) {
                 large.write_all(&block).unwrap();
             }
-            assert!(large.helper.is_some());
+            assert!(matches!(large.helper, Helper::Running(..)));
             let err = large.finish().expect_err("fsync of /dev/null fails");
             assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{err}");
         });
