@@ -14,7 +14,7 @@ use ckcm::{
     Workspace,
 };
 use fmu_core::values::{ByteReader, ByteWriter, Values};
-use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
+use fmu_core::{Causality, Model, ModelError, ModelResult, Shown, VarSpec, VarType};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -181,7 +181,10 @@ impl CkcmPlant {
                 let atol = self.values.real(vr::ABSOLUTE_TOLERANCE);
                 for (n, x) in [("relative_tolerance", rtol), ("absolute_tolerance", atol)] {
                     if !(x.is_finite() && x > 0.0) {
-                        return Err(ModelError::error(format!("{n} = {x} must be positive")));
+                        return Err(ModelError::error(format!(
+                            "{n} = {} must be positive",
+                            Shown(x)
+                        )));
                     }
                 }
                 Ok(Integrator::DormandPrince(DormandPrince {
@@ -207,7 +210,10 @@ impl CkcmPlant {
             ("velocity_noise_sigma", noise.sigma_velocity_mps),
         ] {
             if x < 0.0 {
-                return Err(ModelError::error(format!("{n} = {x} must not be negative")));
+                return Err(ModelError::error(format!(
+                    "{n} = {} must not be negative",
+                    Shown(x)
+                )));
             }
         }
         if noise.seed < 0 {
@@ -283,7 +289,8 @@ impl Model for CkcmPlant {
         sim.check(&sim.state).map_err(|e| {
             ModelError::error(format!(
                 "the initial pose (home_height + initial_pose) is outside the workspace: \
-                 at t = {start_time} s {e}"
+                 at t = {} s {e}",
+                Shown(start_time)
             ))
         })?;
         self.sim = Some(sim);
@@ -304,13 +311,19 @@ impl Model for CkcmPlant {
         let mut integrator = sim.integrator;
         let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
         let end = t + h;
+        // The workspace is checked where the step ends; an integration failure happens
+        // somewhere inside it, so it gets no time of its own beyond the step's.
         let checked = match advanced {
-            Ok(()) => sim.check(&next).map_err(|e| format!("at t = {end} s {e}")),
-            Err(e) => Err(format!("at t = {end} s {e}")),
+            Ok(()) => sim
+                .check(&next)
+                .map_err(|e| format!("at t = {} s {e}", Shown(end))),
+            Err(e) => Err(e.to_string()),
         };
         let legs = checked.map_err(|e| {
             ModelError::discard(format!(
-                "the step from t = {t} s by {h} s under force = {:?} N is refused: {e}",
+                "the step from t = {} s by {} s under force = {:?} N is refused: {e}",
+                Shown(t),
+                Shown(h),
                 force.as_slice()
             ))
         })?;

@@ -93,8 +93,14 @@ fn a_step_needing_more_than_a_million_substeps_is_refused_naming_the_cause() {
     let mut plant = holding_plant(Some(1e-6));
     let e = plant.do_step(0.0, 2.0).unwrap_err();
     assert_eq!(e.severity, Severity::Discard, "{}", e.message);
+    // Refused before integrating: the message gives the step, not a time at its end.
     assert!(
-        e.message.contains("RK4 substeps of at most 0.000001 s"),
+        e.message
+            .starts_with("the step from t = 0 s by 2 s under force = [")
+            && e.message.ends_with(
+                " N is refused: an interval of 2 s needs more than 1e6 RK4 substeps of at \
+                 most 0.000001 s"
+            ),
         "{}",
         e.message
     );

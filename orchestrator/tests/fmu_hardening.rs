@@ -116,12 +116,22 @@ fn every_parameter_range_is_enforced_on_set() {
                             .unwrap_or_else(|e| panic!("{name}: {} = {min}: {e}", v.name));
                         let (status, err) = failure(inst.set_real(&[r], &[bad]));
                         assert_eq!(status, Status::Error, "{name}: {} = {bad}", v.name);
-                        let expected = if bad.is_finite() {
-                            format!("{} = {bad} is outside its range [{min}, {max}]", v.name)
+                        if bad.is_finite() {
+                            // The numbers' spelling is the FMU's (exponents for extreme
+                            // values); their values must be exact.
+                            let said = range_message(&err, v.name.as_str());
+                            let bits = |(x, lo, hi): (f64, f64, f64)| {
+                                [x.to_bits(), lo.to_bits(), hi.to_bits()]
+                            };
+                            assert_eq!(
+                                said.map(bits),
+                                Some(bits((bad, min, max))),
+                                "{name}: {err}"
+                            );
                         } else {
-                            format!("{} = {bad} ", v.name)
-                        };
-                        assert!(err.contains(&expected), "{name}: {err}");
+                            let expected = format!("{} = {bad} ", v.name);
+                            assert!(err.contains(&expected), "{name}: {err}");
+                        }
                         // An error terminates the instance; start over.
                         inst = f.instantiate("ranges", true).unwrap();
                     }
@@ -386,4 +396,13 @@ fn pending_string_status_is_discard() {
         );
         a.do_step(1e-3, 1e-3, true).unwrap();
     }
+}
+
+/// The value and range of a message "`name` = x is outside its range [lo, hi]", parsed.
+fn range_message(message: &str, name: &str) -> Option<(f64, f64, f64)> {
+    let rest = &message[message.find(&format!("{name} = "))? + name.len() + 3..];
+    let (value, rest) = rest.split_once(" is outside its range [")?;
+    let (lo, rest) = rest.split_once(", ")?;
+    let (hi, _) = rest.split_once(']')?;
+    Some((value.parse().ok()?, lo.parse().ok()?, hi.parse().ok()?))
 }

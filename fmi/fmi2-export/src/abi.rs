@@ -795,7 +795,8 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
             Function::SetFmuState,
             &format!(
                 "restored state {} at t = {}",
-                inst.glue.state, inst.glue.time
+                inst.glue.state,
+                fmu_core::Shown(inst.glue.time)
             ),
         );
         Ok(Status::Ok)

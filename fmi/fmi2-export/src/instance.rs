@@ -7,7 +7,9 @@ use std::ffi::{CStr, CString, c_void};
 
 use crate::state::{FmiState, Function};
 use fmi2_sys::{Fmi2ComponentEnvironment, Fmi2Status, Fmi2String, Status};
-use fmu_core::{Causality, Model, ModelError, Severity, VarSpec, VarType, Variability, VrRun};
+use fmu_core::{
+    Causality, Model, ModelError, Severity, Shown, VarSpec, VarType, Variability, VrRun,
+};
 
 /// Log categories of every FMU built on this glue, as the logger callback receives them,
 /// indexed by [`category_of`]. Each model description must declare exactly these names in
@@ -591,13 +593,16 @@ impl<M: Model> Instance<M> {
     ) -> Outcome {
         if !start_time.is_finite() {
             return Err(Failure::error(format!(
-                "startTime {start_time} is not finite"
+                "startTime {} is not finite",
+                Shown(start_time)
             )));
         }
         if let Some(stop) = stop_time {
             if !stop.is_finite() || stop < start_time {
                 return Err(Failure::error(format!(
-                    "stopTime {stop} must be finite and not before startTime {start_time}"
+                    "stopTime {} must be finite and not before startTime {}",
+                    Shown(stop),
+                    Shown(start_time)
                 )));
             }
         }
@@ -605,10 +610,10 @@ impl<M: Model> Instance<M> {
         self.glue.start_time = start_time;
         self.glue.stop_time = stop_time;
         self.glue.time = start_time;
-        let stop = stop_time.map_or_else(|| "undefined".to_owned(), |s| s.to_string());
+        let stop = stop_time.map_or_else(|| "undefined".to_owned(), |s| Shown(s).to_string());
         self.event(
             Function::SetupExperiment,
-            &format!("startTime = {start_time}, stopTime = {stop}"),
+            &format!("startTime = {}, stopTime = {stop}", Shown(start_time)),
         );
         Ok(Status::Ok)
     }
@@ -636,7 +641,7 @@ impl<M: Model> Instance<M> {
         self.glue.state = FmiState::StepComplete;
         self.event(
             Function::ExitInitializationMode,
-            &format!("initialized at t = {}", self.glue.start_time),
+            &format!("initialized at t = {}", Shown(self.glue.start_time)),
         );
         Ok(Status::Ok)
     }
@@ -646,7 +651,7 @@ impl<M: Model> Instance<M> {
         self.glue.state = FmiState::Terminated;
         self.event(
             Function::Terminate,
-            &format!("terminated at t = {}", self.glue.time),
+            &format!("terminated at t = {}", Shown(self.glue.time)),
         );
         Ok(Status::Ok)
     }
@@ -663,21 +668,26 @@ impl<M: Model> Instance<M> {
     pub(crate) fn do_step(&mut self, cp: f64, h: f64) -> Outcome {
         if !(h.is_finite() && h > 0.0) {
             return Err(Failure::error(format!(
-                "communicationStepSize {h} must be finite and > 0"
+                "communicationStepSize {} must be finite and > 0",
+                Shown(h)
             )));
         }
         let t = self.glue.time;
         if !cp.is_finite() || (cp - t).abs() > time_tolerance(t) {
             return Err(Failure::error(format!(
-                "currentCommunicationPoint {cp} does not match the FMU time {t}"
+                "currentCommunicationPoint {} does not match the FMU time {}",
+                Shown(cp),
+                Shown(t)
             )));
         }
         if !M::CAN_HANDLE_VARIABLE_STEP {
             if let Some(h0) = self.glue.first_step {
                 if (h - h0).abs() > 1e-9 * h0.abs() {
                     return Err(Failure::error(format!(
-                        "communicationStepSize {h} differs from the first step size {h0}; this FMU \
-                         needs a fixed step (canHandleVariableCommunicationStepSize=false)"
+                        "communicationStepSize {} differs from the first step size {}; this FMU \
+                         needs a fixed step (canHandleVariableCommunicationStepSize=false)",
+                        Shown(h),
+                        Shown(h0)
                     )));
                 }
             }
@@ -686,7 +696,11 @@ impl<M: Model> Instance<M> {
         if let Some(stop) = self.glue.stop_time {
             if end > stop + time_tolerance(stop) {
                 return Err(Failure::error(format!(
-                    "a step of {h} from {cp} ends at {end}, beyond the stop time {stop}"
+                    "a step of {} from {} ends at {}, beyond the stop time {}",
+                    Shown(h),
+                    Shown(cp),
+                    Shown(end),
+                    Shown(stop)
                 )));
             }
         }
@@ -698,7 +712,12 @@ impl<M: Model> Instance<M> {
                 self.glue.last_step_status = Status::Discard;
                 return Err(Failure {
                     status: Status::Discard,
-                    message: format!("step from {cp} by {h} discarded: {}", e.message),
+                    message: format!(
+                        "step from {} by {} discarded: {}",
+                        Shown(cp),
+                        Shown(h),
+                        e.message
+                    ),
                 });
             }
             Err(e) => return Err(e.into()),

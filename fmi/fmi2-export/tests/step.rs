@@ -17,6 +17,15 @@ fn step_size_must_be_positive_and_finite() {
         )));
         assert_eq!(fmu.state(), Some(FmiState::Terminated));
     }
+    // An absurd step is named in a few characters, not 300 digits.
+    let fmu = Fmu::initialized("h");
+    assert_eq!(fmu.do_step(0.0, -1e300), Status::Error);
+    assert!(
+        fmu.log
+            .contains("fmi2DoStep: communicationStepSize -1e300 must be finite and > 0"),
+        "{:?}",
+        fmu.log.records()
+    );
 }
 
 #[test]

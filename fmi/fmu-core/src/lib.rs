@@ -14,6 +14,24 @@ pub mod values;
 
 pub use fmi2_md::{Causality, VarType, Variability};
 
+/// A Real as messages show it: as `{}` prints it where that is short, with an exponent
+/// where `{}` would write out hundreds of zeros (`1e300`, `5e-324`), so a message stays
+/// readable whatever value a caller passed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shown(pub f64);
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        let magnitude = x.abs();
+        if x == 0.0 || !x.is_finite() || (1e-5..1e16).contains(&magnitude) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
+    }
+}
+
 /// One scalar variable of the model, generated from `modelDescription/<Model>.xml`
 /// by the FMU crate's build script so the two never drift apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,10 +85,12 @@ impl VarSpec {
     /// The message of a failed [`VarSpec::check_range`], out of line (see there).
     #[cold]
     fn out_of_range(&self, value: f64) -> String {
-        let bound = |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| x.to_string());
+        let bound =
+            |b: Option<f64>, inf: &str| b.map_or_else(|| inf.to_owned(), |x| Shown(x).to_string());
         format!(
-            "{} = {value} is outside its range [{}, {}]",
+            "{} = {} is outside its range [{}, {}]",
             self.name,
+            Shown(value),
             bound(self.min, "-inf"),
             bound(self.max, "inf")
         )
@@ -298,4 +318,55 @@ macro_rules! values_model {
             Ok(())
         }
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ordinary values read as `{}` prints them; extreme ones get an exponent instead of
+    /// hundreds of digits, and either text parses back to the same value.
+    #[test]
+    fn shown_reals_are_short_and_exact() {
+        for (x, text) in [
+            (0.0, "0"),
+            (-0.0, "-0"),
+            (0.001, "0.001"),
+            (1e-5, "0.00001"),
+            (15.0, "15"),
+            (0.060000000000000005, "0.060000000000000005"),
+            (1e7, "10000000"),
+            (9.9e15, "9900000000000000"),
+            (1e16, "1e16"),
+            (-1e300, "-1e300"),
+            (9.9e-6, "9.9e-6"),
+            (5e-324, "5e-324"),
+            (f64::NAN, "NaN"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            let shown = Shown(x).to_string();
+            assert_eq!(shown, text, "{x:?}");
+            if !x.is_nan() {
+                assert_eq!(shown.parse::<f64>().map(f64::to_bits), Ok(x.to_bits()));
+            }
+        }
+    }
+
+    /// A range message names an absurd value in a few characters.
+    #[test]
+    fn out_of_range_message_stays_short() {
+        let spec = VarSpec {
+            name: "kp",
+            value_reference: 0,
+            var_type: VarType::Real,
+            causality: Causality::Parameter,
+            variability: Variability::Tunable,
+            min: Some(0.0),
+            max: Some(1e7),
+        };
+        assert_eq!(
+            spec.check_range(1e300),
+            Err("kp = 1e300 is outside its range [0, 10000000]".to_owned())
+        );
+    }
 }

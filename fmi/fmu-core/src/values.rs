@@ -343,8 +343,9 @@ fn not_finite(variables: &[VarSpec], vr: u32, value: f64) -> ModelError {
         .iter()
         .find(|v| v.value_reference == vr && v.var_type == VarType::Real);
     ModelError::error(format!(
-        "{} = {value} is not finite",
-        name.map_or("?", |v| v.name)
+        "{} = {} is not finite",
+        name.map_or("?", |v| v.name),
+        crate::Shown(value)
     ))
 }
 
