@@ -285,6 +285,16 @@ fn line_trial(c: &mut Criterion) {
                 .expect("trial 1");
         })
     });
+    // The same trial recording nothing (the metrics' signals are still kept): what
+    // recording every signal at every sample costs `Master`, next to the FMI layer itself.
+    g.bench_function("orchestrator_unrecorded", |b| {
+        b.iter(|| {
+            master.set_memory(&learned);
+            master
+                .run_trial(1, None, &mut signals, |_| {})
+                .expect("trial 1");
+        })
+    });
     g.bench_function("floor", |b| {
         b.iter(|| floor(black_box(&floor_memory), &mut floor_next))
     });
