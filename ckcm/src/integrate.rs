@@ -67,8 +67,10 @@ pub enum IntegrationError {
     StepTooSmall { h_min: f64, offset: f64 },
     #[error("adaptive integration needed more than {max_steps} steps in one interval")]
     TooManySteps { max_steps: usize },
+    /// The message leaves `h` to the caller, who names the step (an absurd `h` would
+    /// otherwise be written out in hundreds of digits).
     #[error(
-        "an interval of {h} s needs more than {RK4_MAX_SUBSTEPS:e} RK4 substeps of at most {max_step} s"
+        "the interval needs more than {RK4_MAX_SUBSTEPS:e} RK4 substeps of at most {max_step} s"
     )]
     TooManySubsteps { h: f64, max_step: f64 },
 }
