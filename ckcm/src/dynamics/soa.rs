@@ -44,35 +44,42 @@ fn splat(x: [f64; 3]) -> Soa3 {
 
 /// Row `P` of the mass matrix's upper triangle from the legs' rank-one terms
 /// w_i j_i j_iᵀ, summed in leg order.
+///
+/// Leg by leg, each adding to the whole row, so two columns take one instruction; the
+/// row starts at the even column at or left of the diagonal (the extra entry is never
+/// read). Summing one column over the legs at a time instead (the terms two legs per
+/// instruction, the sum one leg at a time) took 1.2 % more CPU per FMI-free trial
+/// (BENCHMARKS.md, round 18).
 #[inline(always)]
 fn mass_row<const P: usize>(
     u: &mut [f64; 6],
     w: &[f64; LEGS],
-    jac: &[[f64; LEGS]; 6],
+    jac_leg: &[[f64; 6]; LEGS],
     transverse: &[f64; LEGS],
-    rr: &[f64; LEGS],
-    r: &Soa3,
+    rr_leg: &[[[f64; 6]; 3]; LEGS],
+    r_leg: &[[f64; 6]; LEGS],
 ) {
-    let wj: [f64; LEGS] = std::array::from_fn(|i| w[i] * jac[P][i]);
-    for q in P..6 {
-        let t: [f64; LEGS] = std::array::from_fn(|i| wj[i] * jac[q][i]);
+    let mut row = [0.0_f64; 6];
+    for i in 0..LEGS {
+        let wj = w[i] * jac_leg[i][P];
+        let t: [f64; 6] = std::array::from_fn(|q| wj * jac_leg[i][q]);
         if P >= 3 {
             // The rotational block also gets c (|r|² I − r rᵀ) from each leg, added right
             // after that leg's rank-one term, as the reference does.
-            let (a, b) = (P - 3, q - 3);
-            let s: [f64; LEGS] = std::array::from_fn(|i| {
-                transverse[i] * (if a == b { rr[i] } else { 0.0 } - r[a][i] * r[b][i])
-            });
-            for i in 0..LEGS {
-                u[q] += t[i];
-                u[q] += s[i];
+            let (a, ra) = (P - 3, r_leg[i][P]);
+            let s: [f64; 6] =
+                std::array::from_fn(|q| transverse[i] * (rr_leg[i][a][q] - ra * r_leg[i][q]));
+            for q in P & !1..6 {
+                row[q] += t[q];
+                row[q] += s[q];
             }
         } else {
-            for &x in &t {
-                u[q] += x;
+            for q in P & !1..6 {
+                row[q] += t[q];
             }
         }
     }
+    *u = row;
 }
 
 impl Mechanism {
@@ -186,15 +193,23 @@ impl Mechanism {
             w[i] = lp.rod_mass - transverse[i];
             rr[i] = r[0][i] * r[0][i] + r[1][i] * r[1][i] + r[2][i] * r[2][i];
         }
+        // Per leg: j_i; r_i behind three zeros, so that column q of the rotational block
+        // reads element q; and |r_i|² on the diagonal of that block's row a, else 0.
+        let jac_leg: [[f64; 6]; LEGS] = std::array::from_fn(|i| std::array::from_fn(|q| jac[q][i]));
+        let r_leg: [[f64; 6]; LEGS] =
+            std::array::from_fn(|i| [0.0, 0.0, 0.0, r[0][i], r[1][i], r[2][i]]);
+        let rr_leg: [[[f64; 6]; 3]; LEGS] = std::array::from_fn(|i| {
+            std::array::from_fn(|a| std::array::from_fn(|q| if q == a + 3 { rr[i] } else { 0.0 }))
+        });
         let mut u = [[0.0_f64; 6]; 6];
-        // One call per row with the row index a constant, so each row's loop over the
-        // columns unrolls completely and its block test is decided at compile time.
-        mass_row::<0>(&mut u[0], &w, jac, &transverse, &rr, r);
-        mass_row::<1>(&mut u[1], &w, jac, &transverse, &rr, r);
-        mass_row::<2>(&mut u[2], &w, jac, &transverse, &rr, r);
-        mass_row::<3>(&mut u[3], &w, jac, &transverse, &rr, r);
-        mass_row::<4>(&mut u[4], &w, jac, &transverse, &rr, r);
-        mass_row::<5>(&mut u[5], &w, jac, &transverse, &rr, r);
+        // One call per row with the row index a constant, so each row's loops unroll
+        // completely and its block test is decided at compile time.
+        mass_row::<0>(&mut u[0], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
+        mass_row::<1>(&mut u[1], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
+        mass_row::<2>(&mut u[2], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
+        mass_row::<3>(&mut u[3], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
+        mass_row::<4>(&mut u[4], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
+        mass_row::<5>(&mut u[5], &w, &jac_leg, &transverse, &rr_leg, &r_leg);
         let mut c_sum = self.params.platform.mass;
         let mut c_r = [0.0; 3];
         for i in 0..LEGS {
@@ -238,21 +253,22 @@ impl Mechanism {
         let g = self.params.gravity;
         let v = [twist[0], twist[1], twist[2]];
         let w = [twist[3], twist[4], twist[5]];
-        // The reference evaluates the residual at zero acceleration a = ω̇ = 0, and those
-        // zeros stay operands here: 0 + x is +0 where x is −0, so folding them away could
-        // flip the sign of a zero and, through it, a bit of the result.
-        let zero3 = [0.0; 3];
-        // ṡ = v + ω × r, s̈ = (a + ω̇ × r) + ω × (ω × r).
+        // The reference evaluates the residual at zero acceleration a = ω̇ = 0. For a finite r
+        // its s̈ = (a + ω̇ × r) + ω × (ω × r) adds (0 + ±0) = +0 to ω × (ω × r), which is
+        // x + 0.0: −0 becomes +0 and every other x stays. So the products with zero are
+        // folded but that one sum is kept, since a zero's sign can reach a bit of the
+        // result: one operation per component instead of five, 2.5 % less CPU per
+        // FMI-free trial (BENCHMARKS.md, round 18). A non-finite r comes only from a
+        // non-finite pose, which fails either way. ṡ = v + ω × r.
         let w_s = splat(w);
         let w_cross_r = cross(&w_s, r);
         let w_cross_w_cross_r = cross(&w_s, &w_cross_r);
-        let dw_cross_r = cross(&splat(zero3), r);
         let mut sd: Soa3 = [[0.0; LEGS]; 3];
         let mut sdd: Soa3 = [[0.0; LEGS]; 3];
         for k in 0..3 {
             for i in 0..LEGS {
                 sd[k][i] = v[k] + w_cross_r[k][i];
-                sdd[k][i] = zero3[k] + dw_cross_r[k][i] + w_cross_w_cross_r[k][i];
+                sdd[k][i] = w_cross_w_cross_r[k][i] + 0.0;
             }
         }
         let ld = dot(n, &sd);
@@ -290,11 +306,7 @@ impl Mechanism {
         }
         let r_cross_f = cross(r, &f);
         let mass = self.params.platform.mass;
-        let mut force = [
-            (zero3[0] + 0.0) * mass,
-            (zero3[1] + 0.0) * mass,
-            (zero3[2] + g) * mass,
-        ];
+        let mut force = [0.0 * mass, 0.0 * mass, (0.0 + g) * mass];
         // I ω̇ + ω × (I ω) with ω̇ = 0, in gemv order.
         let iw: [f64; 3] = std::array::from_fn(|k| {
             inertia_world[(k, 0)] * w[0]
