@@ -10,7 +10,7 @@ use std::ops::Range;
 use ckcm::learning::MemoryUpdate;
 use fmi2_import::{Fmu, ImportError, Instance};
 
-use crate::output::{Recording, seconds};
+use crate::output::{Recording, RowStage, seconds};
 use crate::scenario::{Port, Scenario};
 use crate::variables::set_value;
 
@@ -295,6 +295,8 @@ pub struct Master<'s> {
     /// One sample: recorded columns, then the six leg errors (or six references and six
     /// true lengths), then x, y, z.
     row: Vec<f64>,
+    /// Recorded rows on their way to the recording's columns.
+    stage: RowStage,
     column_names: Vec<String>,
     has_error: bool,
     /// Whether the leg errors are reference − length rather than an error output.
@@ -472,6 +474,7 @@ impl<'s> Master<'s> {
             bus: vec![0.0; next],
             channels,
             row: vec![0.0; columns],
+            stage: RowStage::new(column_names.len()),
             column_names,
             wiring,
             has_error: metrics.is_some(),
@@ -611,10 +614,9 @@ impl<'s> Master<'s> {
         trial: usize,
         mut recording: Option<&mut Recording>,
         signals: &mut TrialSignals,
-        mut on_step: impl FnMut(usize),
+        on_step: impl FnMut(usize),
         link: &mut L,
     ) -> Result<(), MasterError> {
-        let sc = self.scenario;
         self.start_trial(trial)?;
         if let Some(r) = recording.as_deref_mut() {
             r.time.clear();
@@ -622,6 +624,30 @@ impl<'s> Master<'s> {
                 c.clear();
             }
         }
+        self.stage.clear();
+        let stepped = self.step_trial(trial, recording.as_deref_mut(), signals, on_step, link);
+        // The staged rows go in on failure too: a failed trial's recording keeps every
+        // step up to the failure.
+        if let Some(r) = recording {
+            self.stage.flush(r);
+        }
+        stepped?;
+        for ch in &mut self.channels {
+            ch.end_trial();
+        }
+        Ok(())
+    }
+
+    /// The stepping loop of [`Master::run_trial_linked`]; recorded rows stay in the stage.
+    fn step_trial<L: MemoryLink>(
+        &mut self,
+        trial: usize,
+        mut recording: Option<&mut Recording>,
+        signals: &mut TrialSignals,
+        mut on_step: impl FnMut(usize),
+        link: &mut L,
+    ) -> Result<(), MasterError> {
+        let sc = self.scenario;
         signals.time.clear();
         for e in &mut signals.error {
             e.clear();
@@ -731,7 +757,7 @@ impl<'s> Master<'s> {
             signals.time.push(t);
             if n % interval == 0 {
                 if let Some(r) = recording.as_deref_mut() {
-                    r.push_row(t, &self.row[..ncols]);
+                    self.stage.push(t, &self.row[..ncols], r);
                 }
             }
             if L::ACTIVE && ((n + 1) % CHUNK_STEPS == 0 || n + 1 == sc.steps) {
@@ -746,9 +772,6 @@ impl<'s> Master<'s> {
             }
             self.forward_log();
             on_step(n);
-        }
-        for ch in &mut self.channels {
-            ch.end_trial();
         }
         Ok(())
     }

@@ -143,7 +143,8 @@ fn mini_platform_failing_get(dir: &Path) -> std::path::PathBuf {
 }
 
 /// An FMU whose fmi2GetReal fails right after a successful step: the error names the call and
-/// the time the step reached, t₃ = 3 ms (computed from the step index, as every time is).
+/// the time the step reached, t₃ = 3 ms (computed from the step index, as every time is). The
+/// recording keeps the rows of the steps before, although the master stages rows in blocks.
 #[test]
 fn a_failing_get_after_a_step_names_the_time_the_step_reached() {
     let dir = tempfile::tempdir().unwrap();
@@ -166,8 +167,9 @@ variables = ["mini.x"]
     let (scenario, fmus) = Scenario::open_text(&text, Path::new("mini.toml")).unwrap();
     let mut master = Master::new(&scenario, fmus, false).unwrap();
     let mut signals = master.new_signals();
+    let mut recording = master.new_recording();
     let err = master
-        .run_trial(0, None, &mut signals, |_| {})
+        .run_trial(0, Some(&mut recording), &mut signals, |_| {})
         .unwrap_err()
         .to_string();
     assert!(
@@ -175,4 +177,7 @@ variables = ["mini.x"]
         "{err}"
     );
     assert!(err.contains("GetReal refused at t=0.003"), "{err}");
+    assert_eq!(recording.time, [0.0, 0.001]);
+    assert!(!recording.columns.is_empty());
+    assert!(recording.columns.iter().all(|c| c.len() == 2));
 }

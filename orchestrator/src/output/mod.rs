@@ -20,6 +20,7 @@ pub use self::csv::{
 };
 pub use self::parquet::ParquetExporter;
 pub use self::recording::Recording;
+pub(crate) use self::recording::RowStage;
 
 /// A simulation time for messages: to the nanosecond, trailing zeros dropped, so a time the
 /// master reached by adding steps reads as the user wrote it (0.943, not 0.9430000000000001).
