@@ -7,6 +7,10 @@
 #                             FMUs of DIR: (CPU(21 trials) - CPU(1 trial)) / 20, no recording
 #   floor BIN [RUNS]          CPU ms per trial of the FMI-free floor (ckcm's `floor` example
 #                             binary BIN, 30 trials per run, perf task-clock)
+#   master BIN DIR [RUNS]     CPU ms per recorded 15 s HLCS line trial of `Master` (the
+#                             `master_trials` example binary BIN with the FMUs of DIR, the
+#                             shipped scenario's recording): (CPU(21) - CPU(1)) / 20, perf
+#                             task-clock. CKCM_UNRECORDED=1 records nothing
 #   hlcs DIR FORMAT [RUNS]    wall and CPU s of `orchestrator run scenarios/line-hlcs.toml` as
 #                             shipped (10 trials, 5 recorded) with the FMUs of DIR, recording
 #                             in FORMAT (csv or parquet); every run is printed. It runs with
@@ -27,13 +31,14 @@
 # cost.
 #
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
-# cargo build --release -p ckcm --example floor); GNU time and perf
+# cargo build --release -p ckcm --example floor; for `master`: cargo build --release
+# -p orchestrator --example master_trials); GNU time and perf
 # (apt-get install -y time linux-perf; valgrind for `instructions`). CKCM_ORCHESTRATOR
 # picks another CLI binary.
-# Usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions|recording ...
+# Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording ...
 set -euo pipefail
 
-mode=${1:?usage: scripts/bench_cpu.sh trial|floor|hlcs|instructions|recording ...}
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording ...}
 shift
 repo=$(cd "$(dirname "$0")/.." && pwd)
 bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
@@ -86,6 +91,20 @@ floor)
     done
     printf '%s: %.2f ms CPU per trial (min of %d)\n' "$floor" "$best" "$runs"
     ;;
+master)
+    example=${1:?master BIN DIR [RUNS]}
+    dir=${2:?master BIN DIR [RUNS]}
+    runs=${3:-3}
+    s=$(scenario "$dir" 10 record)
+    flag=${CKCM_UNRECORDED:+--unrecorded}
+    cpu_ms() { perf stat -x, -e task-clock "$example" "$s" "$1" $flag 2>&1 >/dev/null | awk -F, '/task-clock/ {print $1}'; }
+    best=
+    for ((k = 0; k < runs; k++)); do
+        ms=$(awk -v a="$(cpu_ms 1)" -v b="$(cpu_ms 21)" 'BEGIN {print (b - a) / 20}')
+        best=$(awk -v x="$ms" -v b="$best" 'BEGIN {print (b == "" || x < b) ? x : b}')
+    done
+    printf '%s: %.2f ms CPU per trial (min of %d)%s\n' "$dir" "$best" "$runs" "${flag:+, unrecorded}"
+    ;;
 hlcs)
     dir=${1:?hlcs DIR FORMAT [RUNS]}
     format=${2:?hlcs DIR FORMAT [RUNS]}
@@ -123,7 +142,7 @@ recording)
         $(($(ir "$work/vg-record") - $(ir "$work/vg-none"))) "$format"
     ;;
 *)
-    echo "unknown mode $mode: trial, floor, hlcs, instructions or recording" >&2
+    echo "unknown mode $mode: trial, floor, master, hlcs, instructions or recording" >&2
     exit 2
     ;;
 esac
