@@ -160,8 +160,7 @@ impl RowStage {
                 column.extend(self.values[c..].iter().step_by(self.width));
             }
         }
-        self.time.clear();
-        self.values.clear();
+        self.clear();
     }
 
     /// Drops the staged rows without moving them anywhere.
