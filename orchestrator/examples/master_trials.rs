@@ -1,7 +1,8 @@
 //! Runs one trial of a scenario through `Master` and then repeats trial 1 REPS times, with
-//! the memory trial 0 learned, recording every trial: CPU time per recorded trial without
-//! criterion's wall clock, which a shared machine makes noisy (`scripts/bench_cpu.sh master`
-//! takes the difference of two repeat counts, so loading the FMUs and trial 0 cancel).
+//! the memory trial 0 learned, recording every trial (with `--unrecorded`, trial 0 only):
+//! CPU time per trial without criterion's wall clock, which a shared machine makes noisy
+//! (`scripts/bench_cpu.sh master` takes the difference of two repeat counts, so loading the
+//! FMUs and trial 0 cancel).
 //!
 //! Usage: master_trials SCENARIO [REPS] [--unrecorded]
 

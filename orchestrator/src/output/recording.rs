@@ -97,7 +97,7 @@ impl Recording {
 /// row, and on a trial-sized recording those lines are rarely cached: the stores stall the
 /// master loop. Here a row is one sequential copy into a buffer that stays in L1, and each
 /// full block is moved into the columns a column at a time, 64 consecutive values each:
-/// about 2 % less time per recorded trial (BENCHMARKS.md, round 19).
+/// 2 to 4 % less CPU per recorded trial (BENCHMARKS.md, round 19).
 #[derive(Debug, Clone)]
 pub(crate) struct RowStage {
     width: usize,
