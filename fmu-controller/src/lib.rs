@@ -55,13 +55,32 @@ fn nominal_params(variables: &[VarSpec], values: &Values) -> ModelResult<Params>
     Ok(p)
 }
 
-/// Reference tables of the last few parameter sets, shared by every instance in this process.
-/// They cannot live in the instance alone: fmi2Reset, which a master calls before every
-/// trial, replaces the model by a fresh one with all start values.
-static TABLES: Mutex<Vec<Arc<ReferenceTable>>> = Mutex::new(Vec::new());
+/// What this process's controller models share: the reference tables of the last few
+/// parameter sets, and how many models are alive (instances, and the FMU states saved from
+/// them). The tables cannot live in an instance alone: fmi2Reset, which a master calls before
+/// every trial, replaces the model by a fresh one with all start values. They go with the last
+/// model, though: a static outlives fmi2FreeInstance and even the unloading of the library,
+/// so a master that loads a fresh copy of this FMU for every run (fmpy's `simulate_fmu`
+/// does) would otherwise keep every copy's tables until the process ends, 2.4 MB each for a
+/// 15 s trajectory.
+struct Shared {
+    live: usize,
+    tables: Vec<Arc<ReferenceTable>>,
+}
 
-/// How many parameter sets [`TABLES`] remembers (a 15 s trial at 1 ms takes about 2.4 MB).
+static SHARED: Mutex<Shared> = Mutex::new(Shared {
+    live: 0,
+    tables: Vec::new(),
+});
+
+/// How many parameter sets [`SHARED`] remembers (a 15 s trial at 1 ms takes about 2.4 MB).
 const TABLES_KEPT: usize = 4;
+
+/// [`SHARED`], also after a panic elsewhere poisoned its lock (the data stay consistent:
+/// every change to it is a single push, remove, increment or clear).
+fn shared() -> std::sync::MutexGuard<'static, Shared> {
+    SHARED.lock().unwrap_or_else(PoisonError::into_inner)
+}
 
 /// The table for these arguments: a remembered one, else a new one (then remembered, the
 /// oldest forgotten). Its terms are computed exactly as the law computes them itself, so
@@ -72,19 +91,48 @@ fn shared_table(
     start_time: f64,
     h: f64,
 ) -> Arc<ReferenceTable> {
-    let mut tables = TABLES.lock().unwrap_or_else(PoisonError::into_inner);
-    if let Some(t) = tables
+    let mut shared = shared();
+    if let Some(t) = shared
+        .tables
         .iter()
         .find(|t| t.is_for(model, trajectory, start_time, h))
     {
         return Arc::clone(t);
     }
     let table = Arc::new(ReferenceTable::new(model, trajectory, start_time, h));
-    if tables.len() == TABLES_KEPT {
-        tables.remove(0);
+    if shared.tables.len() == TABLES_KEPT {
+        shared.tables.remove(0);
     }
-    tables.push(Arc::clone(&table));
+    shared.tables.push(Arc::clone(&table));
     table
+}
+
+/// Counts one live controller model in [`SHARED`] (made, cloned for a saved FMU state,
+/// dropped); the last one to go takes the shared tables with it.
+#[derive(Debug)]
+struct Live;
+
+impl Live {
+    fn new() -> Self {
+        shared().live += 1;
+        Live
+    }
+}
+
+impl Clone for Live {
+    fn clone(&self) -> Self {
+        Live::new()
+    }
+}
+
+impl Drop for Live {
+    fn drop(&mut self) {
+        let mut shared = shared();
+        shared.live = shared.live.saturating_sub(1);
+        if shared.live == 0 {
+            shared.tables = Vec::new();
+        }
+    }
 }
 
 /// The controller: variable values plus, once initialised, the control law state.
@@ -92,6 +140,8 @@ fn shared_table(
 pub struct HlcsController {
     values: Values,
     sim: Option<Sim>,
+    /// Held for its count in [`SHARED`] only.
+    _live: Live,
 }
 
 #[derive(Debug, Clone)]
@@ -185,7 +235,7 @@ impl HlcsController {
     fn sample(&mut self, t: f64, h: f64, commit: bool) -> ModelResult<()> {
         let settings = self.settings();
         let input = self.input();
-        let Self { values, sim } = self;
+        let Self { values, sim, .. } = self;
         let sim = sim
             .as_mut()
             .ok_or_else(|| ModelError::error("not initialized"))?;
@@ -277,6 +327,7 @@ impl Model for HlcsController {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
+            _live: Live::new(),
         }
     }
 
@@ -307,6 +358,7 @@ impl Model for HlcsController {
         let mut restored = Self {
             values: Values::default(),
             sim: None,
+            _live: Live::new(),
         };
         restored.values.restore(&mut r)?;
         if r.u8()? == 1 {
@@ -338,6 +390,53 @@ fmi2_export::export_fmu!(HlcsController);
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A line controller of 0.2 s, initialised and stepped once, so it holds a table.
+    fn stepped() -> HlcsController {
+        let mut c = HlcsController::new();
+        c.set_integer(vr::TRAJECTORY, TRAJECTORY_LINE).unwrap();
+        c.set_real(vr::DURATION, 0.2).unwrap();
+        c.initialize(0.0).unwrap();
+        c.do_step(0.0, 1e-3).unwrap();
+        c
+    }
+
+    fn table_of(c: &HlcsController) -> Arc<ReferenceTable> {
+        Arc::clone(c.sim.as_ref().unwrap().table.as_ref().unwrap())
+    }
+
+    /// The shared tables stay while any model lives (across an fmi2Reset, which replaces the
+    /// model by a fresh one, and in a saved FMU state) and go with the last one, as when a
+    /// master frees the instance and unloads this copy of the library. The only test here
+    /// that makes models, so no other test changes the count meanwhile.
+    #[test]
+    fn shared_tables_go_with_the_last_model() {
+        let count = || {
+            let s = shared();
+            (s.live, s.tables.len())
+        };
+        assert_eq!(count(), (0, 0));
+        let mut a = stepped();
+        assert_eq!(count(), (1, 1));
+        let saved = a.clone();
+        a = HlcsController::new();
+        assert_eq!(
+            count(),
+            (2, 1),
+            "fmi2Reset and a saved state keep the table"
+        );
+        drop(a);
+        let b = stepped();
+        assert!(
+            Arc::ptr_eq(&table_of(&b), &table_of(&saved)),
+            "a new instance reuses the table while another model lives"
+        );
+        assert_eq!(count(), (2, 1));
+        drop(saved);
+        assert_eq!(count(), (1, 1));
+        drop(b);
+        assert_eq!(count(), (0, 0), "the last model takes the tables with it");
+    }
 
     /// A `model.*` parameter that is no mechanism field (here `model.gravity` renamed) is
     /// an error naming the variable; an invalid value is named by its variable too.
