@@ -31,9 +31,8 @@ pub struct CaseData {
     pub trajectory: Trajectory,
 }
 
-/// What the figures need of one recorded trial. Full signals are kept only for the trials
-/// drawn in full (`full`); of the others, only the leg-1 force and learned input, so the
-/// study's memory stays small (a 15 s recording is 3 MB).
+/// What the figures need of one recorded trial: the columns [`drawn`] names, so the study's
+/// memory stays small (a whole 15 s recording is 3.7 MB).
 #[derive(Debug)]
 pub struct TrialData {
     /// Trial index.
@@ -68,16 +67,14 @@ impl TrialData {
                 .collect(),
         );
         let path_error = scale(&path_error(&rec, trajectory), 1e3);
-        if !full {
-            let (names, columns): (Vec<String>, Vec<Vec<f64>>) = rec
-                .names
-                .drain(..)
-                .zip(rec.columns.drain(..))
-                .filter(|(n, _)| n == "controller.force[1]" || n == "controller.memory_next[1]")
-                .unzip();
-            rec.names = names;
-            rec.columns = columns;
-        }
+        let (names, columns): (Vec<String>, Vec<Vec<f64>>) = rec
+            .names
+            .drain(..)
+            .zip(rec.columns.drain(..))
+            .filter(|(n, _)| drawn(n, full))
+            .unzip();
+        rec.names = names;
+        rec.columns = columns;
         TrialData {
             trial: k,
             rec,
@@ -121,6 +118,19 @@ fn recording(d: &CaseData, k: usize) -> Result<&Recording, PaperError> {
                 d.result.dir.display()
             ))
         })
+}
+
+/// Whether a figure draws column `name` of a trial kept `full` or not: every trial's leg-1
+/// force and learned input; of the trials drawn in full, also the six leg errors, the
+/// position (the pose's angles are not drawn) and every leg's learned input. Half of a full
+/// recording's columns: the study holds these for every case until the figures are drawn.
+fn drawn(name: &str, full: bool) -> bool {
+    name == "controller.force[1]"
+        || name == "controller.memory_next[1]"
+        || (full
+            && (name.starts_with("controller.error[")
+                || name.starts_with("controller.memory_next[")
+                || ["plant.pose[1]", "plant.pose[2]", "plant.pose[3]"].contains(&name)))
 }
 
 /// Max over legs of |e| per time bucket, mm: (bucket centres, maxima).
@@ -784,4 +794,61 @@ pub fn figure_files() -> Vec<String> {
     }
     v.extend(super::robust::figure_files());
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A trial's recording as `paper` records it (error, force, learned input, length and
+    /// pose of every leg or axis), 50 samples of small values.
+    fn recorded() -> Recording {
+        let names: Vec<String> = [
+            "controller.error",
+            "controller.force",
+            "controller.memory_next",
+        ]
+        .iter()
+        .chain(&["plant.length", "plant.pose"])
+        .flat_map(|base| (1..=6).map(move |i| format!("{base}[{i}]")))
+        .collect();
+        let mut rec = Recording::new(names);
+        for n in 0..50 {
+            let row: Vec<f64> = (0..rec.names.len())
+                .map(|c| 1e-4 * ((n * 7 + c) % 11) as f64)
+                .collect();
+            rec.push_row(n as f64 * 1e-3, &row);
+        }
+        rec
+    }
+
+    /// Every column a figure reads stays, with its values; the pose's angles and the leg
+    /// lengths, which no figure draws, go.
+    #[test]
+    fn kept_columns_are_those_the_figures_read() {
+        let line = Trajectory {
+            kind: TrajectoryKind::Line,
+            duration: 0.05,
+            home_height: 0.5,
+        };
+        let whole = recorded();
+        let legs =
+            |base: &str| -> Vec<String> { (1..=6).map(|i| format!("{base}[{i}]")).collect() };
+        let mut full = legs("controller.error");
+        full.push("controller.force[1]".into());
+        full.extend(legs("controller.memory_next"));
+        full.extend((1..=3).map(|i| format!("plant.pose[{i}]")));
+        let partial = vec![
+            "controller.force[1]".to_string(),
+            "controller.memory_next[1]".to_string(),
+        ];
+        for (is_full, expected) in [(true, full), (false, partial)] {
+            let td = TrialData::new(4, whole.clone(), &line, is_full);
+            assert_eq!(td.rec.names, expected, "full: {is_full}");
+            for name in &expected {
+                assert_eq!(td.rec.column(name), whole.column(name), "{name}");
+            }
+            assert_eq!(td.rec.time, whole.time);
+        }
+    }
 }
