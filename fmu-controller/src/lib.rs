@@ -59,10 +59,10 @@ fn nominal_params(variables: &[VarSpec], values: &Values) -> ModelResult<Params>
 /// parameter sets, and how many models are alive (instances, and the FMU states saved from
 /// them). The tables cannot live in an instance alone: fmi2Reset, which a master calls before
 /// every trial, replaces the model by a fresh one with all start values. They go with the last
-/// model, though: a static outlives fmi2FreeInstance and even the unloading of the library,
-/// so a master that loads a fresh copy of this FMU for every run (fmpy's `simulate_fmu`
-/// does) would otherwise keep every copy's tables until the process ends, 2.4 MB each for a
-/// 15 s trajectory.
+/// model, though: what a static owns on the heap is freed neither by fmi2FreeInstance nor
+/// when the library is unloaded, so a master that loads a fresh copy of this FMU for every
+/// run (fmpy's `simulate_fmu` does) would otherwise keep every copy's tables until the
+/// process ends, 2.4 MB each for a 15 s trajectory.
 struct Shared {
     live: usize,
     tables: Vec<Arc<ReferenceTable>>,
