@@ -32,7 +32,7 @@ pub struct CaseData {
 }
 
 /// What the figures need of one recorded trial: the columns [`drawn`] names, so the study's
-/// memory stays small (a whole 15 s recording is 3.7 MB).
+/// memory stays small (a whole 15 s recording is 3 MB).
 #[derive(Debug)]
 pub struct TrialData {
     /// Trial index.
@@ -122,8 +122,8 @@ fn recording(d: &CaseData, k: usize) -> Result<&Recording, PaperError> {
 
 /// Whether a figure draws column `name` of a trial kept `full` or not: every trial's leg-1
 /// force and learned input; of the trials drawn in full, also the six leg errors, the
-/// position (the pose's angles are not drawn) and every leg's learned input. Half of a full
-/// recording's columns: the study holds these for every case until the figures are drawn.
+/// position (the pose's angles are not drawn) and every leg's learned input: 16 of the 24
+/// columns `paper` records, which the study holds for every case until the figures are drawn.
 fn drawn(name: &str, full: bool) -> bool {
     name == "controller.force[1]"
         || name == "controller.memory_next[1]"
@@ -800,8 +800,8 @@ pub fn figure_files() -> Vec<String> {
 mod tests {
     use super::*;
 
-    /// A trial's recording as `paper` records it (error, force, learned input, length and
-    /// pose of every leg or axis), 50 samples of small values.
+    /// A trial's recording as `paper` records it (error, force and learned input of every
+    /// leg, the pose), 50 samples of small values.
     fn recorded() -> Recording {
         let names: Vec<String> = [
             "controller.error",
@@ -809,7 +809,7 @@ mod tests {
             "controller.memory_next",
         ]
         .iter()
-        .chain(&["plant.length", "plant.pose"])
+        .chain(&["plant.pose"])
         .flat_map(|base| (1..=6).map(move |i| format!("{base}[{i}]")))
         .collect();
         let mut rec = Recording::new(names);
@@ -822,8 +822,8 @@ mod tests {
         rec
     }
 
-    /// Every column a figure reads stays, with its values; the pose's angles and the leg
-    /// lengths, which no figure draws, go.
+    /// Every column a figure reads stays, with its values; the pose's angles and the force
+    /// of legs 2–6, which no figure draws, go.
     #[test]
     fn kept_columns_are_those_the_figures_read() {
         let line = Trajectory {
