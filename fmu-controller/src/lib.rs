@@ -77,7 +77,8 @@ static SHARED: Mutex<Shared> = Mutex::new(Shared {
 const TABLES_KEPT: usize = 4;
 
 /// [`SHARED`], also after a panic elsewhere poisoned its lock (the data stay consistent:
-/// every change to it is a single push, remove, increment or clear).
+/// every change to it is a single push, remove, count change or clear, and a panic while
+/// a table is built leaves it untouched).
 fn shared() -> std::sync::MutexGuard<'static, Shared> {
     SHARED.lock().unwrap_or_else(PoisonError::into_inner)
 }
