@@ -134,9 +134,14 @@ impl Sim {
     /// geometry, which the outputs need too.
     fn check(&self, state: &State) -> Result<LegGeometry, ckcm::WorkspaceError> {
         let legs = self.mechanism.inverse_kinematics(&state.pose);
-        let twist_finite = state.twist.iter().all(|x| x.is_finite());
-        self.workspace.check(&state.pose, twist_finite, &legs)?;
+        self.check_legs(state, &legs)?;
         Ok(legs)
+    }
+
+    /// [`Sim::check`] with the leg geometry `legs` of `state` already at hand.
+    fn check_legs(&self, state: &State, legs: &LegGeometry) -> Result<(), ckcm::WorkspaceError> {
+        let twist_finite = state.twist.iter().all(|x| x.is_finite());
+        self.workspace.check(&state.pose, twist_finite, legs)
     }
 }
 
@@ -311,15 +316,19 @@ impl Model for CkcmPlant {
         let mut integrator = sim.integrator;
         let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
         let end = t + h;
+        // The leg geometry stays where it is computed and is checked by reference. Moved
+        // out through the check's Result it was copied (552 bytes) right before the outputs
+        // read it, and those reads waited on the copy's stores.
+        let legs = sim.mechanism.inverse_kinematics(&next.pose);
         // The workspace is checked where the step ends; an integration failure happens
         // somewhere inside it, so it gets no time of its own beyond the step's.
         let checked = match advanced {
             Ok(()) => sim
-                .check(&next)
+                .check_legs(&next, &legs)
                 .map_err(|e| format!("at t = {} s {e}", Shown(end))),
             Err(e) => Err(e.to_string()),
         };
-        let legs = checked.map_err(|e| {
+        checked.map_err(|e| {
             ModelError::discard(format!(
                 "the step from t = {} s by {} s under force = {:?} N is refused: {e}",
                 Shown(t),
