@@ -299,6 +299,55 @@ fn line_trial(c: &mut Criterion) {
         b.iter(|| floor(black_box(&floor_memory), &mut floor_next))
     });
     g.finish();
+
+    // The ratios trial by trial, for `CKCM_ALTERNATE=N`: criterion times each benchmark for
+    // 10 s after the other, and a shared machine drifts by more than the 10 % the FMI
+    // overhead target leaves between them. Here each round times all three trials back to
+    // back, in an order that rotates, and the ratios are taken within a round.
+    let Some(rounds) = std::env::var("CKCM_ALTERNATE")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+        .filter(|&n| n > 0)
+    else {
+        return;
+    };
+    let mut recorded = Vec::with_capacity(rounds);
+    let mut unrecorded = Vec::with_capacity(rounds);
+    let mut floor_times = Vec::with_capacity(rounds);
+    for round in 0..rounds {
+        let mut times = [0.0; 3];
+        for k in 0..3 {
+            let which = (round + k) % 3;
+            let start = std::time::Instant::now();
+            match which {
+                0 => {
+                    floor(black_box(&floor_memory), &mut floor_next);
+                }
+                _ => {
+                    master.set_memory(&learned);
+                    let rec = (which == 1).then_some(&mut recording);
+                    master
+                        .run_trial(1, rec, &mut signals, |_| {})
+                        .expect("trial 1");
+                }
+            }
+            times[which] = start.elapsed().as_secs_f64() * 1e3;
+        }
+        floor_times.push(times[0]);
+        recorded.push(times[1] / times[0]);
+        unrecorded.push(times[2] / times[0]);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    println!(
+        "line_trial_15s alternated, {rounds} rounds: floor median {:.2} ms; Master / floor \
+         median {:.3} recorded, {:.3} unrecorded",
+        median(&mut floor_times),
+        median(&mut recorded),
+        median(&mut unrecorded)
+    );
 }
 
 criterion_group!(benches, plant_step, controller_step, line_trial);
