@@ -5,6 +5,9 @@
 //!
 //! Needs the packaged FMUs: `cargo xtask fmu`, then `cargo bench -p orchestrator --bench cosim`.
 //! `CKCM_FMU_DIR` overrides where they are looked for (default `<workspace>/target/fmu`).
+//! `CKCM_ALTERNATE=N` also times N rounds of the floor, the recorded and the unrecorded
+//! trial back to back and prints the median ratios (filter `alternated_only` to run only
+//! those; BENCHMARKS.md, round 22).
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
