@@ -280,8 +280,8 @@ fn line_trial(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("line_trial_15s");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    // Restoring the learned memory copies 720 kB that a campaign never copies (it swaps its
-    // read and write buffers between trials), so the clock stops for it.
+    // Restoring the learned memory copies 720 kB that `run_trial` itself never copies (it
+    // swaps its read and write buffers between trials), so the clock stops for it.
     let mut timed_trial = |recorded: bool| {
         master.set_memory(&learned);
         let start = Instant::now();
