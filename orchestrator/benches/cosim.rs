@@ -5,9 +5,9 @@
 //!
 //! Needs the packaged FMUs: `cargo xtask fmu`, then `cargo bench -p orchestrator --bench cosim`.
 //! `CKCM_FMU_DIR` overrides where they are looked for (default `<workspace>/target/fmu`).
-//! `CKCM_ALTERNATE=N` also times N rounds of the floor, the recorded and the unrecorded
-//! trial back to back and prints the median ratios (filter `alternated_only` to run only
-//! those; BENCHMARKS.md, round 22).
+//! `CKCM_ALTERNATE=N` (N ≥ 1) also times N rounds of the floor, the recorded and the
+//! unrecorded trial back to back and prints the median ratios (filter `alternated_only` to
+//! run only those; BENCHMARKS.md, round 22).
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -307,13 +307,15 @@ fn line_trial(c: &mut Criterion) {
     // 10 s after the other, and a shared machine drifts by more than the 10 % the FMI
     // overhead target leaves between them. Here each round times all three trials back to
     // back, in an order that rotates, and the ratios are taken within a round.
-    let Some(rounds) = std::env::var("CKCM_ALTERNATE")
-        .ok()
-        .and_then(|s| s.parse::<usize>().ok())
-        .filter(|&n| n > 0)
-    else {
+    let Ok(text) = std::env::var("CKCM_ALTERNATE") else {
         return;
     };
+    // A mistyped count must not look like a run that measured nothing.
+    let rounds = text
+        .parse::<usize>()
+        .ok()
+        .filter(|&n| n > 0)
+        .unwrap_or_else(|| panic!("CKCM_ALTERNATE={text:?}: expected a positive number of rounds"));
     let mut recorded = Vec::with_capacity(rounds);
     let mut unrecorded = Vec::with_capacity(rounds);
     let mut floor_times = Vec::with_capacity(rounds);
