@@ -26,6 +26,11 @@
 #   recording DIR FORMAT      instructions of recording one trial in FORMAT (csv or parquet)
 #                             under cachegrind: Ir(one trial, recorded) - Ir(one trial, no
 #                             [record]): the master's row copies, the formatting and the write
+#   icache MASTER FLOOR DIR   simulated L1 instruction-cache misses per trial (cachegrind; a
+#                             32 KiB, 8-way cache of 64-byte lines, CKCM_I1=size,ways,line for
+#                             another) of an unrecorded `Master` trial (`master_trials` binary
+#                             MASTER, the FMUs of DIR) and of the floor (`floor` binary FLOOR):
+#                             (misses(3 trials) - misses(1)) / 2 each
 #
 # `trial`, `instructions` and `recording` run one lane (--jobs 1): they measure a trial's own
 # cost.
@@ -35,10 +40,10 @@
 # -p orchestrator --example master_trials); GNU time and perf
 # (apt-get install -y time linux-perf; valgrind for `instructions`). CKCM_ORCHESTRATOR
 # picks another CLI binary.
-# Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording ...
+# Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache ...
 set -euo pipefail
 
-mode=${1:?usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording ...}
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache ...}
 shift
 repo=$(cd "$(dirname "$0")/.." && pwd)
 bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
@@ -144,8 +149,24 @@ recording)
     printf '%s: %d instructions to record one trial in %s\n' "$dir" \
         $(($(ir "$work/vg-record") - $(ir "$work/vg-none"))) "$format"
     ;;
+icache)
+    example=${1:?icache MASTER FLOOR DIR}
+    floor=${2:?icache MASTER FLOOR DIR}
+    dir=${3:?icache MASTER FLOOR DIR}
+    i1=${CKCM_I1:-32768,8,64}
+    s=$(scenario "$dir" 10 record)
+    misses() {
+        valgrind --tool=cachegrind --cache-sim=yes --I1="$i1" --cachegrind-out-file=/dev/null \
+            "$@" >/dev/null 2>"$work/vg"
+        grep -oP 'I1\s+misses:\s+\K[0-9,]+' "$work/vg" | tr -d ,
+    }
+    m=$((($(misses "$example" "$s" 3 --unrecorded) - $(misses "$example" "$s" 1 --unrecorded)) / 2))
+    f=$((($(misses "$floor" 3) - $(misses "$floor" 1)) / 2))
+    printf 'simulated L1i %s (size,ways,line): %d misses per unrecorded Master trial (%s), %d per floor trial\n' \
+        "$i1" "$m" "$dir" "$f"
+    ;;
 *)
-    echo "unknown mode $mode: trial, floor, master, hlcs, instructions or recording" >&2
+    echo "unknown mode $mode: trial, floor, master, hlcs, instructions, recording or icache" >&2
     exit 2
     ;;
 esac
