@@ -38,7 +38,8 @@
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
 # cargo build --release -p ckcm --example floor; for `master`: cargo build --release
 # -p orchestrator --example master_trials); GNU time and perf
-# (apt-get install -y time linux-perf; valgrind for `instructions`). CKCM_ORCHESTRATOR
+# (apt-get install -y time linux-perf; valgrind for `instructions`, `recording` and
+# `icache`). CKCM_ORCHESTRATOR
 # picks another CLI binary.
 # Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache ...
 set -euo pipefail
