@@ -72,6 +72,25 @@ scenario() {
 # cpu_of FILE: user + sys seconds written by GNU time -f "%U %S".
 cpu_of() { awk '{print $1 + $2}' "$1"; }
 
+# cachegrind LOG OPTIONS... -- COMMAND...: valgrind's cachegrind with the command's output
+# discarded and valgrind's report in LOG. A command that fails or dies under valgrind (one of
+# its instructions unknown to valgrind, say) stops the script with its report: the counts of
+# a run cut short would be subtracted as if complete.
+cachegrind() {
+    local log=$1 status=0
+    shift
+    local opts=()
+    while [[ $1 != -- ]]; do opts+=("$1"); shift; done
+    shift
+    valgrind --tool=cachegrind "${opts[@]}" "$@" >/dev/null 2>"$log" || status=$?
+    if ((status != 0)); then
+        echo "bench_cpu.sh: under valgrind, $* exited with status $status; valgrind's report" \
+            "before its counts:" >&2
+        sed -n '/ I *refs:/q;p' "$log" | tail -n 20 >&2
+        exit 1
+    fi
+}
+
 case $mode in
 trial)
     dir=${1:?trial DIR [RUNS]}
@@ -128,9 +147,8 @@ hlcs)
 instructions)
     dir=${1:?instructions DIR}
     for n in 1 3; do
-        valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg$n" \
-            "$bin" run "$(scenario "$dir" $n none)" --out "$work/o$n" --force --jobs 1 \
-            >/dev/null 2>"$work/vg$n"
+        cachegrind "$work/vg$n" --cache-sim=no --cachegrind-out-file="$work/cg$n" -- \
+            "$bin" run "$(scenario "$dir" $n none)" --out "$work/o$n" --force --jobs 1
     done
     ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
     printf '%s: %d instructions per trial\n' "$dir" $((($(ir "$work/vg3") - $(ir "$work/vg1")) / 2))
@@ -142,9 +160,8 @@ recording)
         s=$(scenario "$dir" 1 "$keep")
         # Of the shipped recorded trials only trial 0 exists in a one-trial campaign.
         sed -i 's/^trials = \[0, 1, 2, 3, 9\]$/trials = [0]/' "$s"
-        valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg-$keep" \
-            "$bin" run "$s" --out "$work/o-$keep" --force --jobs 1 \
-            --record-format "$format" >/dev/null 2>"$work/vg-$keep"
+        cachegrind "$work/vg-$keep" --cache-sim=no --cachegrind-out-file="$work/cg-$keep" -- \
+            "$bin" run "$s" --out "$work/o-$keep" --force --jobs 1 --record-format "$format"
     done
     ir() { grep -oP 'I\s+refs:\s+\K[0-9,]+' "$1" | tr -d ,; }
     printf '%s: %d instructions to record one trial in %s\n' "$dir" \
@@ -156,13 +173,17 @@ icache)
     dir=${3:?icache MASTER FLOOR DIR}
     i1=${CKCM_I1:-32768,8,64}
     s=$(scenario "$dir" 10 record)
-    misses() {
-        valgrind --tool=cachegrind --cache-sim=yes --I1="$i1" --cachegrind-out-file=/dev/null \
-            "$@" >/dev/null 2>"$work/vg"
-        grep -oP 'I1\s+misses:\s+\K[0-9,]+' "$work/vg" | tr -d ,
-    }
-    m=$((($(misses "$example" "$s" 3 --unrecorded) - $(misses "$example" "$s" 1 --unrecorded)) / 2))
-    f=$((($(misses "$floor" 3) - $(misses "$floor" 1)) / 2))
+    # Each run's report gets its own file, and runs outside $(...): an `exit` in a command
+    # substitution would end only the subshell.
+    misses() { grep -oP 'I1\s+misses:\s+\K[0-9,]+' "$work/vg-$1" | tr -d ,; }
+    for n in 1 3; do
+        cachegrind "$work/vg-m$n" --cache-sim=yes --I1="$i1" --cachegrind-out-file=/dev/null -- \
+            "$example" "$s" $n --unrecorded
+        cachegrind "$work/vg-f$n" --cache-sim=yes --I1="$i1" --cachegrind-out-file=/dev/null -- \
+            "$floor" $n
+    done
+    m=$((($(misses m3) - $(misses m1)) / 2))
+    f=$((($(misses f3) - $(misses f1)) / 2))
     printf 'simulated L1i %s (size,ways,line): %d misses per unrecorded Master trial (%s), %d per floor trial\n' \
         "$i1" "$m" "$dir" "$f"
     ;;
