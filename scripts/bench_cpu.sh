@@ -31,6 +31,16 @@
 #                             another) of an unrecorded `Master` trial (`master_trials` binary
 #                             MASTER, the FMUs of DIR) and of the floor (`floor` binary FLOOR):
 #                             (misses(3 trials) - misses(1)) / 2 each
+#   footprint MASTER FLOOR DIR
+#                             the code a 1 ms step runs, in 64-byte lines, for the same two
+#                             binaries: every function that runs at least once per step (its
+#                             instructions per trial, Ir(2 trials) - Ir(1), at least the
+#                             trial's 15,000 steps) with the lines of it that one trial touches
+#                             at all (cachegrind's misses in a 1 MiB cache, which holds
+#                             everything). An upper bound: lines a function touches only at
+#                             start-up count too, and same-named functions of the two FMU
+#                             libraries count together. Code without symbols (`???:???`, the
+#                             libraries' call stubs) is left out and its lines printed apart
 #
 # `trial`, `instructions` and `recording` run one lane (--jobs 1): they measure a trial's own
 # cost.
@@ -38,13 +48,13 @@
 # Needs: cargo xtask fmu; cargo build --release -p orchestrator (and for `floor`:
 # cargo build --release -p ckcm --example floor; for `master`: cargo build --release
 # -p orchestrator --example master_trials); GNU time and perf
-# (apt-get install -y time linux-perf; valgrind for `instructions`, `recording` and
-# `icache`). CKCM_ORCHESTRATOR
+# (apt-get install -y time linux-perf; valgrind for `instructions`, `recording`,
+# `icache` and `footprint`). CKCM_ORCHESTRATOR
 # picks another CLI binary.
-# Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache ...
+# Usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache|footprint ...
 set -euo pipefail
 
-mode=${1:?usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache ...}
+mode=${1:?usage: scripts/bench_cpu.sh trial|floor|master|hlcs|instructions|recording|icache|footprint ...}
 shift
 repo=$(cd "$(dirname "$0")/.." && pwd)
 bin=${CKCM_ORCHESTRATOR:-$repo/target/release/orchestrator}
@@ -187,8 +197,47 @@ icache)
     printf 'simulated L1i %s (size,ways,line): %d misses per unrecorded Master trial (%s), %d per floor trial\n' \
         "$i1" "$m" "$dir" "$f"
     ;;
+footprint)
+    example=${1:?footprint MASTER FLOOR DIR}
+    floor=${2:?footprint MASTER FLOOR DIR}
+    dir=${3:?footprint MASTER FLOOR DIR}
+    s=$(scenario "$dir" 1 none)
+    for n in 1 2; do
+        cachegrind "$work/vg-m$n" --cache-sim=yes --I1=1048576,16,64 \
+            --cachegrind-out-file="$work/cg-m$n" -- "$example" "$s" $n --unrecorded
+        cachegrind "$work/vg-f$n" --cache-sim=yes --I1=1048576,16,64 \
+            --cachegrind-out-file="$work/cg-f$n" -- "$floor" $n
+    done
+    # functions FILE: "lines<TAB>instructions<TAB>file:function" per row of cg_annotate's
+    # function table (sed, not gawk's match(): Debian's awk is mawk). awk reads to the end:
+    # an early exit would fail the pipeline on cg_annotate's broken pipe.
+    functions() {
+        cg_annotate --show=I1mr,Ir --sort=Ir --threshold=0 "$1" |
+            awk '/file:function/ {on = 1; getline; next} on && /^-----/ {on = 0} on' |
+            sed -E 's/^ *([0-9,]+) +\([^)]*\) +([0-9,]+) +\([^)]*\) +/\1\t\2\t/; s/,//g'
+    }
+    steps=$(awk '/^duration/ {d = $3} /^step_size/ {h = $3} END {printf "%.0f", d / h}' "$s")
+    for who in m f; do
+        functions "$work/cg-${who}1" >"$work/fn-${who}1"
+        functions "$work/cg-${who}2" >"$work/fn-${who}2"
+        label=$([[ $who == m ]] && echo "unrecorded Master trial ($dir)" || echo "floor trial")
+        awk -F'\t' -v steps="$steps" -v label="$label" '
+            NR == FNR {lines[$3] = $1; ir1[$3] = $2; next}
+            $2 - ir1[$3] >= steps {
+                per = ($2 - ir1[$3]) / steps
+                if ($3 == "???:???") {stub = lines[$3]; next}
+                total += lines[$3]; instr += per
+                printf "  %5d lines %9.1f per step  %s\n", lines[$3], per, $3 | "sort -rn"
+            }
+            END {
+                close("sort -rn")
+                printf "%s: %d lines (%.1f KiB) of code run per step, %.0f instructions per step (%d lines of call stubs left out)\n",
+                    label, total, total * 64 / 1024, instr, stub
+            }' "$work/fn-${who}1" "$work/fn-${who}2"
+    done
+    ;;
 *)
-    echo "unknown mode $mode: trial, floor, master, hlcs, instructions, recording or icache" >&2
+    echo "unknown mode $mode: trial, floor, master, hlcs, instructions, recording, icache or footprint" >&2
     exit 2
     ;;
 esac
