@@ -39,8 +39,8 @@
 #                             at all (cachegrind's misses in a 1 MiB cache, which holds
 #                             everything). An upper bound: lines a function touches only at
 #                             start-up count too, and same-named functions of the two FMU
-#                             libraries count together. Code without symbols (`???:???`, the
-#                             libraries' call stubs) is left out and its lines printed apart
+#                             libraries count together. Code without symbols (`???:???`) is
+#                             left out and its lines printed apart
 #
 # `trial`, `instructions` and `recording` run one lane (--jobs 1): they measure a trial's own
 # cost.
@@ -231,7 +231,7 @@ footprint)
             }
             END {
                 close("sort -rn")
-                printf "%s: %d lines (%.1f KiB) of code run per step, %.0f instructions per step (%d lines of call stubs left out)\n",
+                printf "%s: %d lines (%.1f KiB) of code run per step, %.0f instructions per step (%d lines without symbols left out)\n",
                     label, total, total * 64 / 1024, instr, stub
             }' "$work/fn-${who}1" "$work/fn-${who}2"
     done
