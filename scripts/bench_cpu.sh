@@ -216,7 +216,9 @@ footprint)
             awk '/file:function/ {on = 1; getline; next} on && /^-----/ {on = 0} on' |
             sed -E 's/^ *([0-9,]+) +\([^)]*\) +([0-9,]+) +\([^)]*\) +/\1\t\2\t/; s/,//g'
     }
-    steps=$(awk '/^duration/ {d = $3} /^step_size/ {h = $3} END {printf "%.0f", d / h}' "$s")
+    # Steps per trial from the scenario's stop time and step size (the floor example runs the
+    # same 15 s at 1 ms).
+    steps=$(awk '/^stop_time/ {d = $3} /^step_size/ {h = $3} END {printf "%.0f", d / h}' "$s")
     for who in m f; do
         functions "$work/cg-${who}1" >"$work/fn-${who}1"
         functions "$work/cg-${who}2" >"$work/fn-${who}2"
@@ -225,14 +227,14 @@ footprint)
             NR == FNR {lines[$3] = $1; ir1[$3] = $2; next}
             $2 - ir1[$3] >= steps {
                 per = ($2 - ir1[$3]) / steps
-                if ($3 == "???:???") {stub = lines[$3]; next}
+                if ($3 == "???:???") {unnamed = lines[$3]; next}
                 total += lines[$3]; instr += per
                 printf "  %5d lines %9.1f per step  %s\n", lines[$3], per, $3 | "sort -rn"
             }
             END {
                 close("sort -rn")
                 printf "%s: %d lines (%.1f KiB) of code run per step, %.0f instructions per step (%d lines without symbols left out)\n",
-                    label, total, total * 64 / 1024, instr, stub
+                    label, total, total * 64 / 1024, instr, unnamed
             }' "$work/fn-${who}1" "$work/fn-${who}2"
     done
     ;;
