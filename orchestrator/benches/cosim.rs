@@ -18,7 +18,8 @@ use ckcm::nalgebra::Vector6;
 use ckcm::{ControlSettings, Hlcs, Integrator, Mechanism, Params, ReferenceTable, Trajectory};
 use criterion::{Criterion, criterion_group, criterion_main};
 use fmi2_import::{Fmu, Instance};
-use orchestrator::master::Master;
+use orchestrator::master::{Master, TrialSignals};
+use orchestrator::output::Recording;
 use orchestrator::scenario::Scenario;
 
 /// Communication step, s.
@@ -34,6 +35,11 @@ fn fmu_path(name: &str) -> PathBuf {
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fmu"),
         PathBuf::from,
     );
+    fmu_path_in(&dir, name)
+}
+
+/// `<dir>/<name>.fmu`, canonical.
+fn fmu_path_in(dir: &Path, name: &str) -> PathBuf {
     let path = dir.join(format!("{name}.fmu"));
     assert!(
         path.is_file(),
@@ -167,8 +173,8 @@ fn controller_step(c: &mut Criterion) {
 }
 
 /// The coupled scenario of `scenarios/line-hlcs.toml` (15 s line, HLCS, everything recorded
-/// at every sample, metrics on), with absolute FMU paths.
-fn line_scenario_toml() -> String {
+/// at every sample, metrics on), with the absolute paths of `controller` and `plant`.
+fn line_scenario_toml(controller: &Path, plant: &Path) -> String {
     format!(
         r#"
 step_size = 0.001
@@ -214,19 +220,20 @@ rho = 1.0
 pose = "plant.pose"
 trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
 "#,
-        controller = fmu_path("HlcsController").display(),
-        plant = fmu_path("CkcmPlant").display(),
+        controller = controller.display(),
+        plant = plant.display(),
     )
 }
 
-/// Trial ≥ 1 of the 15 s line through the orchestrator's `Master` and through the FMI-free
-/// loop. Both restore the memory trial 0 learned before every iteration, so every sample
-/// times the same (non-zero-memory) trial.
-fn line_trial(c: &mut Criterion) {
-    let text = line_scenario_toml();
-    let (scenario, fmus) =
-        Scenario::open_text(&text, Path::new("bench-line.toml")).expect("valid scenario");
-    let mut master = Master::new(&scenario, fmus, false).expect("master");
+/// The line scenario with the FMUs of `controller` and `plant`.
+fn line_scenario(controller: &Path, plant: &Path) -> (Scenario, Vec<Fmu>) {
+    let text = line_scenario_toml(controller, plant);
+    Scenario::open_text(&text, Path::new("bench-line.toml")).expect("valid scenario")
+}
+
+/// Runs trial 0 and returns what trial 1 needs: a recording, signals and the iteration
+/// memory trial 0 learned.
+fn prime(master: &mut Master) -> (Recording, TrialSignals, Vec<Vec<f64>>) {
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();
     master
@@ -237,6 +244,32 @@ fn line_trial(c: &mut Criterion) {
         learned.iter().flatten().any(|&u| u != 0.0),
         "trial 0 learned nothing"
     );
+    (recording, signals, learned)
+}
+
+/// Trial 1 from `learned`, timed without the memory's restore: restoring copies 720 kB that
+/// `run_trial` itself never copies (it swaps its read and write buffers between trials).
+fn timed_trial(
+    master: &mut Master,
+    learned: &[Vec<f64>],
+    recording: Option<&mut Recording>,
+    signals: &mut TrialSignals,
+) -> Duration {
+    master.set_memory(learned);
+    let start = Instant::now();
+    master
+        .run_trial(1, recording, signals, |_| {})
+        .expect("trial 1");
+    start.elapsed()
+}
+
+/// Trial ≥ 1 of the 15 s line through the orchestrator's `Master` and through the FMI-free
+/// loop. Both restore the memory trial 0 learned before every iteration, so every sample
+/// times the same (non-zero-memory) trial.
+fn line_trial(c: &mut Criterion) {
+    let (scenario, fmus) = line_scenario(&fmu_path("HlcsController"), &fmu_path("CkcmPlant"));
+    let mut master = Master::new(&scenario, fmus, false).expect("master");
+    let (mut recording, mut signals, learned) = prime(&mut master);
 
     let plant = Mechanism::new(Params::default()).expect("default parameters are valid");
     let nominal = Mechanism::new(Params::nominal()).expect("nominal parameters are valid");
@@ -280,23 +313,21 @@ fn line_trial(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("line_trial_15s");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    // Restoring the learned memory copies 720 kB that `run_trial` itself never copies (it
-    // swaps its read and write buffers between trials), so the clock stops for it.
-    let mut timed_trial = |recorded: bool| {
-        master.set_memory(&learned);
-        let start = Instant::now();
-        master
-            .run_trial(1, recorded.then_some(&mut recording), &mut signals, |_| {})
-            .expect("trial 1");
-        start.elapsed()
+    let mut timed = |recorded: bool| {
+        timed_trial(
+            &mut master,
+            &learned,
+            recorded.then_some(&mut recording),
+            &mut signals,
+        )
     };
     g.bench_function("orchestrator", |b| {
-        b.iter_custom(|iters| (0..iters).map(|_| timed_trial(true)).sum())
+        b.iter_custom(|iters| (0..iters).map(|_| timed(true)).sum())
     });
     // The same trial recording nothing (the metrics' signals are still kept): what
     // recording every signal at every sample costs `Master`, next to the FMI layer itself.
     g.bench_function("orchestrator_unrecorded", |b| {
-        b.iter_custom(|iters| (0..iters).map(|_| timed_trial(false)).sum())
+        b.iter_custom(|iters| (0..iters).map(|_| timed(false)).sum())
     });
     g.bench_function("floor", |b| {
         b.iter(|| floor(black_box(&floor_memory), &mut floor_next))
@@ -305,7 +336,7 @@ fn line_trial(c: &mut Criterion) {
 
     // The ratios trial by trial, for `CKCM_ALTERNATE=N`: criterion times each benchmark for
     // 10 s after the other, and a shared machine drifts by more than the 10 % the FMI
-    // overhead target leaves between them. Here each round times all three trials back to
+    // overhead target leaves between them. Here each round times all the trials back to
     // back, in an order that rotates, and the ratios are taken within a round.
     let Ok(text) = std::env::var("CKCM_ALTERNATE") else {
         return;
@@ -316,37 +347,86 @@ fn line_trial(c: &mut Criterion) {
         .ok()
         .filter(|&n| n > 0)
         .unwrap_or_else(|| panic!("CKCM_ALTERNATE={text:?}: expected a positive number of rounds"));
-    let mut recorded = Vec::with_capacity(rounds);
-    let mut unrecorded = Vec::with_capacity(rounds);
+    // `CKCM_FMU_DIR_B`: a second build's FMUs, timed in the same rounds, so that a change is
+    // judged against its base within one run of a shared machine, not across runs.
+    let dir_b = std::env::var_os("CKCM_FMU_DIR_B").map(PathBuf::from);
+    let (scenario_b, fmus_b) = dir_b
+        .as_ref()
+        .map(|dir| {
+            line_scenario(
+                &fmu_path_in(dir, "HlcsController"),
+                &fmu_path_in(dir, "CkcmPlant"),
+            )
+        })
+        .unzip();
+    let mut master_b = scenario_b
+        .as_ref()
+        .zip(fmus_b)
+        .map(|(sc, fmus)| Master::new(sc, fmus, false).expect("master of build B"));
+    let mut primed_b = master_b.as_mut().map(prime);
+    // Trials of a round: the floor, then (recorded?, build B?) for each `Master` trial.
+    let mut kinds = vec![None, Some((true, false)), Some((false, false))];
+    if master_b.is_some() {
+        kinds.extend([Some((true, true)), Some((false, true))]);
+    }
+    let mut ratios = vec![Vec::with_capacity(rounds); kinds.len()];
     let mut floor_times = Vec::with_capacity(rounds);
     for round in 0..rounds {
-        let mut times = [0.0; 3];
-        for k in 0..3 {
-            let which = (round + k) % 3;
-            let elapsed = if which == 0 {
-                let start = Instant::now();
-                floor(black_box(&floor_memory), &mut floor_next);
-                start.elapsed()
-            } else {
-                timed_trial(which == 1)
+        let mut times = vec![0.0; kinds.len()];
+        for k in 0..kinds.len() {
+            let which = (round + k) % kinds.len();
+            let elapsed = match kinds[which] {
+                None => {
+                    let start = Instant::now();
+                    floor(black_box(&floor_memory), &mut floor_next);
+                    start.elapsed()
+                }
+                Some((recorded, false)) => timed(recorded),
+                Some((recorded, true)) => {
+                    let (rec, sig, learned_b) = primed_b.as_mut().expect("build B is primed");
+                    let m = master_b.as_mut().expect("build B is loaded");
+                    timed_trial(m, learned_b, recorded.then_some(rec), sig)
+                }
             };
             times[which] = elapsed.as_secs_f64() * 1e3;
         }
         floor_times.push(times[0]);
-        recorded.push(times[1] / times[0]);
-        unrecorded.push(times[2] / times[0]);
+        for (r, t) in ratios.iter_mut().zip(&times).skip(1) {
+            r.push(t / times[0]);
+        }
     }
-    let median = |v: &mut Vec<f64>| {
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
     println!(
         "line_trial_15s alternated, {rounds} rounds: floor median {:.2} ms; Master / floor \
          median {:.3} recorded, {:.3} unrecorded",
-        median(&mut floor_times),
-        median(&mut recorded),
-        median(&mut unrecorded)
+        median(&floor_times),
+        median(&ratios[1]),
+        median(&ratios[2])
     );
+    if let Some(dir) = dir_b {
+        // Within a round, B against A: the host's drift between rounds cancels.
+        let b_over_a = |b: usize, a: usize| {
+            let per_round: Vec<f64> = ratios[b]
+                .iter()
+                .zip(&ratios[a])
+                .map(|(b, a)| b / a)
+                .collect();
+            median(&per_round)
+        };
+        println!(
+            "  build B ({}): Master / floor median {:.3} recorded, {:.3} unrecorded; \
+             B / A median {:.4} recorded, {:.4} unrecorded",
+            dir.display(),
+            median(&ratios[3]),
+            median(&ratios[4]),
+            b_over_a(3, 1),
+            b_over_a(4, 2)
+        );
+    }
 }
 
 criterion_group!(benches, plant_step, controller_step, line_trial);
