@@ -95,6 +95,9 @@ pub struct TrialSignals {
 /// Steps per chunk of iteration memory that a pipelined trial hands to the next one.
 pub const CHUNK_STEPS: usize = 256;
 
+/// Elements of a metrics pose port that are tapped: x, y, z.
+const POSITION: usize = 3;
+
 /// Where the iteration memory of a trial comes from and goes to, chunk by chunk of
 /// [`CHUNK_STEPS`] steps. Trial k+1 reads at step n only what trial k wrote at step n, so
 /// with the plain update (u_{k+1} = m_k) it can run on another core a chunk behind trial k.
@@ -126,8 +129,13 @@ impl MemoryLink for Unlinked {
 /// Per-FMU wiring, resolved to value references and bus slots.
 #[derive(Debug)]
 struct Wiring {
-    /// Outputs read after every step (and after initialization) into `bus[bus_range]`.
+    /// Outputs read after initialization and after every step of a recorded trial into
+    /// `bus[bus_range]`: first those the coupling and the metrics need (see `out_needed`),
+    /// then those only the recording reads.
     out_vrs: Vec<u32>,
+    /// How many of `out_vrs` an unrecorded trial reads after every step. A recorded-only
+    /// output can be costly to compute (the plant's Euler angles are computed only when read).
+    out_needed: usize,
     /// Their names, for the error when one is not finite.
     out_names: Vec<String>,
     bus_range: Range<usize>,
@@ -136,10 +144,15 @@ struct Wiring {
     /// Where each input's value comes from, as runs over `in_buf`.
     in_runs: Vec<InRun>,
     in_buf: Vec<f64>,
-    /// Bus slots copied into recording columns before the step (values at t_n).
+    /// Bus slots copied into the row's columns (recorded, then the metrics') before the
+    /// step (values at t_n).
     record_before: Vec<Run>,
-    /// Bus slots copied into recording columns after the step (values held over the step).
+    /// Bus slots copied into the row's columns after the step (values held over the step).
     record_after: Vec<Run>,
+    /// The metrics' columns of `record_before` and `record_after` alone, for an unrecorded
+    /// trial.
+    metric_before: Vec<Run>,
+    metric_after: Vec<Run>,
 }
 
 impl Wiring {
@@ -150,21 +163,34 @@ impl Wiring {
     fn check_finite(
         &self,
         bus: &[f64],
+        read: usize,
         trial: usize,
         time: f64,
         fmu: &str,
     ) -> Result<(), MasterError> {
-        if all_finite(&bus[self.bus_range.clone()]) {
+        if all_finite(&bus[self.read_range(read)]) {
             Ok(())
         } else {
-            Err(self.not_finite(bus, trial, time, fmu))
+            Err(self.not_finite(bus, read, trial, time, fmu))
         }
+    }
+
+    /// The bus slots of the first `read` outputs.
+    fn read_range(&self, read: usize) -> Range<usize> {
+        self.bus_range.start..self.bus_range.start + read
     }
 
     #[cold]
     #[inline(never)]
-    fn not_finite(&self, bus: &[f64], trial: usize, time: f64, fmu: &str) -> MasterError {
-        let outputs = &bus[self.bus_range.clone()];
+    fn not_finite(
+        &self,
+        bus: &[f64],
+        read: usize,
+        trial: usize,
+        time: f64,
+        fmu: &str,
+    ) -> MasterError {
+        let outputs = &bus[self.read_range(read)];
         let i = outputs.iter().position(|x| !x.is_finite()).unwrap_or(0);
         MasterError::NotFinite {
             trial,
@@ -340,12 +366,14 @@ impl<'s> Master<'s> {
             }
             instances.push(inst);
         }
-        // Every output anyone needs gets a bus slot, grouped per FMU.
+        // Every output anyone needs gets a bus slot, grouped per FMU: first those the
+        // coupling and the metrics read, then those only a recording reads.
         let n = scenario.fmus.len();
         let mut needed: Vec<(Vec<u32>, Vec<String>)> = vec![(Vec::new(), Vec::new()); n];
-        let mut need = |p: &Port| {
+        // The first `take` elements of `p`.
+        let need = |needed: &mut [(Vec<u32>, Vec<String>)], p: &Port, take: usize| {
             let (vrs, names) = &mut needed[p.fmu];
-            for (&vr, name) in p.value_references.iter().zip(&p.names) {
+            for (&vr, name) in p.value_references.iter().zip(&p.names).take(take) {
                 if !vrs.contains(&vr) {
                     vrs.push(vr);
                     names.push(name.clone());
@@ -357,26 +385,28 @@ impl<'s> Master<'s> {
             .iter()
             .chain(scenario.memory.iter().map(|m| &m.link))
         {
-            need(&l.from);
-        }
-        for p in &scenario.record.ports {
-            need(p);
+            need(&mut needed, &l.from, usize::MAX);
         }
         if let Some(m) = &scenario.metrics {
             for p in m.error.ports() {
-                need(p);
+                need(&mut needed, p, usize::MAX);
             }
             if let Some(p) = &m.pose {
-                need(p);
+                need(&mut needed, p, POSITION);
             }
+        }
+        let out_needed: Vec<usize> = needed.iter().map(|(vrs, _)| vrs.len()).collect();
+        for p in &scenario.record.ports {
+            need(&mut needed, p, usize::MAX);
         }
         let mut wiring = Vec::with_capacity(n);
         let mut next = 0;
-        for (vrs, names) in needed {
+        for ((vrs, names), out_needed) in needed.into_iter().zip(out_needed) {
             let range = next..next + vrs.len();
             next = range.end;
             wiring.push(Wiring {
                 out_vrs: vrs,
+                out_needed,
                 out_names: names,
                 bus_range: range,
                 in_vrs: Vec::new(),
@@ -384,6 +414,8 @@ impl<'s> Master<'s> {
                 in_buf: Vec::new(),
                 record_before: Vec::new(),
                 record_after: Vec::new(),
+                metric_before: Vec::new(),
+                metric_after: Vec::new(),
             });
         }
         let slot = |wiring: &[Wiring], fmu: usize, vr: u32| {
@@ -448,7 +480,7 @@ impl<'s> Master<'s> {
             let take = if is_record || !metrics.is_some_and(|m| m.pose.as_ref() == Some(*p)) {
                 p.value_references.len()
             } else {
-                3
+                POSITION
             };
             for (i, &vr) in p.value_references.iter().take(take).enumerate() {
                 if is_record {
@@ -456,10 +488,14 @@ impl<'s> Master<'s> {
                 }
                 let s = slot(&wiring, p.fmu, vr);
                 let w = &mut wiring[p.fmu];
-                if p.sampled {
-                    Run::push(&mut w.record_after, s, columns)
+                let (all, metric) = if p.sampled {
+                    (&mut w.record_after, &mut w.metric_after)
                 } else {
-                    Run::push(&mut w.record_before, s, columns)
+                    (&mut w.record_before, &mut w.metric_before)
+                };
+                Run::push(all, s, columns);
+                if !is_record {
+                    Run::push(metric, s, columns);
                 }
                 columns += 1;
             }
@@ -568,7 +604,7 @@ impl<'s> Master<'s> {
                     what: "fmi2GetReal",
                     source: Box::new(source),
                 })?;
-            w.check_finite(&self.bus, trial, sc.start_time, &spec.name)?;
+            w.check_finite(&self.bus, w.out_vrs.len(), trial, sc.start_time, &spec.name)?;
         }
         self.initialized_once = true;
         self.forward_log();
@@ -655,6 +691,7 @@ impl<'s> Master<'s> {
         signals.position.clear();
         let h = sc.step_size;
         let interval = sc.record.interval;
+        let recorded = recording.is_some();
         for n in 0..sc.steps {
             if L::ACTIVE && n % CHUNK_STEPS == 0 {
                 let end = (n + CHUNK_STEPS).min(sc.steps);
@@ -667,7 +704,12 @@ impl<'s> Master<'s> {
             let t = sc.time(n);
             for k in 0..self.instances.len() {
                 let w = &mut self.wiring[k];
-                Run::copy(&w.record_before, &self.bus, &mut self.row);
+                let before = if recorded {
+                    &w.record_before
+                } else {
+                    &w.metric_before
+                };
+                Run::copy(before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
                     for r in &w.in_runs {
                         let dst = &mut w.in_buf[r.at..r.at + r.len];
@@ -722,7 +764,12 @@ impl<'s> Master<'s> {
                         },
                     );
                 }
-                inst.get_real(&w.out_vrs, &mut self.bus[w.bus_range.clone()])
+                let read = if recorded {
+                    w.out_vrs.len()
+                } else {
+                    w.out_needed
+                };
+                inst.get_real(&w.out_vrs[..read], &mut self.bus[w.read_range(read)])
                     .map_err(|source| MasterError::Call {
                         trial,
                         time: sc.time(n + 1),
@@ -730,8 +777,13 @@ impl<'s> Master<'s> {
                         what: "fmi2GetReal",
                         source: Box::new(source),
                     })?;
-                w.check_finite(&self.bus, trial, sc.time(n + 1), &sc.fmus[k].name)?;
-                Run::copy(&w.record_after, &self.bus, &mut self.row);
+                w.check_finite(&self.bus, read, trial, sc.time(n + 1), &sc.fmus[k].name)?;
+                let after = if recorded {
+                    &w.record_after
+                } else {
+                    &w.metric_after
+                };
+                Run::copy(after, &self.bus, &mut self.row);
                 for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
                     let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];
                     Run::copy(&ch.from_runs, &self.bus, dst);
@@ -755,8 +807,9 @@ impl<'s> Master<'s> {
                 signals.position.push([p[0], p[1], p[2]]);
             }
             signals.time.push(t);
-            if n % interval == 0 {
-                if let Some(r) = recording.as_deref_mut() {
+            // The recording first: an unrecorded trial pays no division.
+            if let Some(r) = recording.as_deref_mut() {
+                if n % interval == 0 {
                     self.stage.push(t, &self.row[..ncols], r);
                 }
             }

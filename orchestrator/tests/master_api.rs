@@ -74,6 +74,105 @@ fn master_reports_its_memory_and_columns() {
     assert_eq!(master.memory()[0], replaced.as_slice());
 }
 
+/// An unrecorded trial reads only the outputs the coupling and the metrics need (the
+/// plant's Euler angles are then never computed); its metrics' signals and the memory it
+/// hands on must be those of the same trial recorded, bit for bit, trial after trial.
+#[test]
+fn unrecorded_trials_match_recorded_ones_bit_for_bit() {
+    let text = format!(
+        r#"
+step_size = 0.001
+stop_time = 0.4
+trials = 3
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "circle"
+duration = 0.4
+learning = true
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+{closed_loop}
+[record]
+variables = ["plant.pose", "controller.force", "plant.velocity_true"]
+interval = 2
+
+[metrics]
+reference = "controller.length_ref"
+length = "plant.length_true"
+rho = 1.0
+pose = "plant.pose"
+trajectory = {{ kind = "circle", duration = 0.4, home_height = 0.5 }}
+"#,
+        controller = common::fmu_path_text("HlcsController"),
+        plant = common::fmu_path_text("CkcmPlant"),
+        closed_loop = common::CLOSED_LOOP,
+    );
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("unrecorded.toml")).unwrap();
+    let (scenario_b, fmus_b) = Scenario::open_text(&text, Path::new("unrecorded.toml")).unwrap();
+    let mut recorded = Master::new(&scenario, fmus, false).unwrap();
+    let mut unrecorded = Master::new(&scenario_b, fmus_b, false).unwrap();
+    let mut recording = recorded.new_recording();
+    let mut signals = recorded.new_signals();
+    let mut signals_b = unrecorded.new_signals();
+    // Bit for bit, naming the first sample that differs.
+    let same = |a: &[f64], b: &[f64], what: &str| {
+        assert_eq!(a.len(), b.len(), "{what}: lengths");
+        if let Some(i) = (0..a.len()).find(|&i| a[i].to_bits() != b[i].to_bits()) {
+            panic!(
+                "{what}: sample {i} is {} recorded, {} unrecorded",
+                a[i], b[i]
+            );
+        }
+    };
+    for trial in 0..3 {
+        recorded
+            .run_trial(trial, Some(&mut recording), &mut signals, |_| {})
+            .unwrap();
+        unrecorded
+            .run_trial(trial, None, &mut signals_b, |_| {})
+            .unwrap();
+        assert_eq!(recording.len(), 200, "trial {trial}");
+        same(
+            &signals.time,
+            &signals_b.time,
+            &format!("trial {trial}, time"),
+        );
+        for leg in 0..6 {
+            same(
+                &signals.error[leg],
+                &signals_b.error[leg],
+                &format!("trial {trial}, error of leg {}", leg + 1),
+            );
+        }
+        same(
+            signals.position.as_flattened(),
+            signals_b.position.as_flattened(),
+            &format!("trial {trial}, position"),
+        );
+        assert!(
+            signals.position.iter().any(|p| p[0] != 0.0),
+            "trial {trial}"
+        );
+        same(
+            recorded.memory()[0],
+            unrecorded.memory()[0],
+            &format!("trial {trial}, memory"),
+        );
+    }
+    // The recorded pose's angles moved with the circle (they are computed on read).
+    let yaw = recording
+        .names
+        .iter()
+        .position(|n| n == "plant.pose[6]")
+        .unwrap();
+    assert!(recording.columns[yaw].iter().any(|&a| a != 0.0));
+}
+
 /// A memory channel fed by the only FMU in the scenario: the master copies the producer's
 /// output into the memory right after the producer's own step, whatever the other FMUs are.
 /// (With a plant after the controller, copying after the plant's step instead would copy the

@@ -270,24 +270,51 @@ pub trait Model: Clone + Send + 'static {
 /// A Real that is not finite is refused with an error naming the variable (no model here has a
 /// use for NaN or infinities, and they would poison every later step); Integers and Booleans
 /// are stored as given, the glue having checked type, settability and declared range.
+///
+/// `values_model!(md, values, derived = method)` is for outputs that are computed when they
+/// are read rather than stored at every step: after the stored values are copied,
+/// `fn method(&self, runs: &[VrRun], out: &mut [f64])` overwrites the entries of `out` whose
+/// value references it derives (`runs` cut as for [`Model::get_reals`]).
 #[macro_export]
 macro_rules! values_model {
     ($md:ident, $values:ident) => {
-        const MODEL_IDENTIFIER: &'static str = $md::MODEL_IDENTIFIER;
-        const GUID: &'static str = $md::GUID;
-        const VARIABLES: &'static [$crate::VarSpec] = $md::VARIABLES;
-        const CAN_HANDLE_VARIABLE_STEP: bool = $md::CAN_HANDLE_VARIABLE_STEP;
+        $crate::values_model!(@common $md, $values);
 
         fn get_real(&self, vr: u32) -> f64 {
             self.$values.real(vr)
         }
 
-        fn set_real(&mut self, vr: u32, value: f64) -> $crate::ModelResult<()> {
-            self.$values.set_finite_real($md::VARIABLES, vr, value)
+        fn get_reals(&self, vrs: &[u32], runs: &[$crate::VrRun], out: &mut [f64]) {
+            self.$values.reals_into(vrs, runs, out)
+        }
+    };
+    ($md:ident, $values:ident, derived = $derived:ident) => {
+        $crate::values_model!(@common $md, $values);
+
+        fn get_real(&self, vr: u32) -> f64 {
+            let mut out = [self.$values.real(vr)];
+            let run = $crate::VrRun {
+                at: 0,
+                first: vr,
+                len: 1,
+            };
+            self.$derived(&[run], &mut out);
+            out[0]
         }
 
         fn get_reals(&self, vrs: &[u32], runs: &[$crate::VrRun], out: &mut [f64]) {
-            self.$values.reals_into(vrs, runs, out)
+            self.$values.reals_into(vrs, runs, out);
+            self.$derived(runs, out);
+        }
+    };
+    (@common $md:ident, $values:ident) => {
+        const MODEL_IDENTIFIER: &'static str = $md::MODEL_IDENTIFIER;
+        const GUID: &'static str = $md::GUID;
+        const VARIABLES: &'static [$crate::VarSpec] = $md::VARIABLES;
+        const CAN_HANDLE_VARIABLE_STEP: bool = $md::CAN_HANDLE_VARIABLE_STEP;
+
+        fn set_real(&mut self, vr: u32, value: f64) -> $crate::ModelResult<()> {
+            self.$values.set_finite_real($md::VARIABLES, vr, value)
         }
 
         fn set_reals(

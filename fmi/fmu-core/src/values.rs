@@ -154,14 +154,20 @@ impl Values {
         std::array::from_fn(|i| self.real(first + i as u32))
     }
 
-    /// Stores six consecutive Reals starting at `first`. Always inlined: as a call (nine
-    /// per co-simulation step) its prologue and epilogue cost more than the copy.
+    /// Stores six consecutive Reals starting at `first` (an array variable `x[1]..x[6]`).
     #[inline(always)]
     pub fn set_real6(&mut self, first: u32, values: &[f64; 6]) {
+        self.set_reals_at(first, values);
+    }
+
+    /// Stores `N` consecutive Reals starting at `first`. Always inlined: as a call (nine
+    /// per co-simulation step) its prologue and epilogue cost more than the copy.
+    #[inline(always)]
+    pub fn set_reals_at<const N: usize>(&mut self, first: u32, values: &[f64; N]) {
         let start = first as usize;
-        // One bounds check and one copy instead of six: about 0.9 % of a trial's
-        // instructions (BENCHMARKS.md, round 7).
-        if let Some(slots) = self.reals.get_mut(start..start + 6) {
+        // One bounds check and one copy instead of N: about 0.9 % of a trial's
+        // instructions for the arrays of six (BENCHMARKS.md, round 7).
+        if let Some(slots) = self.reals.get_mut(start..start + N) {
             slots.copy_from_slice(values);
         } else {
             for (i, &x) in values.iter().enumerate() {
