@@ -7,7 +7,8 @@
 //! `CKCM_FMU_DIR` overrides where they are looked for (default `<workspace>/target/fmu`).
 //! `CKCM_ALTERNATE=N` (N ≥ 1) also times N rounds of the floor, the recorded and the
 //! unrecorded trial back to back and prints the median ratios (filter `alternated_only` to
-//! run only those; BENCHMARKS.md, round 22).
+//! run only those; BENCHMARKS.md, round 22). With it, `CKCM_FMU_DIR_B` times a second
+//! build's FMUs in the same rounds and prints their ratio to the first's (round 30).
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
