@@ -5,24 +5,13 @@
 use alloc_count::{CountingAllocator, allocations};
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
-use ckcm_plant::md::VARIABLES;
 use fmu_core::Model;
+
+mod common;
+use common::{array, vr};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
-
-/// Value reference of a variable by name.
-fn vr(name: &str) -> u32 {
-    VARIABLES
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("CkcmPlant has no variable {name}"))
-        .value_reference
-}
-
-fn array(base: &str) -> [u32; 6] {
-    std::array::from_fn(|i| vr(&format!("{base}[{}]", i + 1)))
-}
 
 const H: f64 = 1e-3;
 const STEPS: u32 = 1000;

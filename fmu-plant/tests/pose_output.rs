@@ -5,20 +5,10 @@
 
 use ckcm::{Mechanism, Params, Pose};
 use ckcm_plant::CkcmPlant;
-use ckcm_plant::md::VARIABLES;
 use fmu_core::{Model, VrRun};
 
-fn vr(name: &str) -> u32 {
-    VARIABLES
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("CkcmPlant has no variable {name}"))
-        .value_reference
-}
-
-fn array(name: &str) -> [u32; 6] {
-    std::array::from_fn(|i| vr(&format!("{name}[{}]", i + 1)))
-}
+mod common;
+use common::array;
 
 /// `vrs` read in one batch, as the glue passes it to the model.
 fn read(plant: &CkcmPlant, vrs: &[u32]) -> Vec<f64> {

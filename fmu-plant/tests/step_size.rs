@@ -5,16 +5,10 @@
 
 use ckcm::{Mechanism, Params};
 use ckcm_plant::CkcmPlant;
-use ckcm_plant::md::VARIABLES;
 use fmu_core::{Model, Severity};
 
-fn vr(name: &str) -> u32 {
-    VARIABLES
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("CkcmPlant has no variable {name}"))
-        .value_reference
-}
+mod common;
+use common::vr;
 
 /// A plant holding the platform at home with the static forces (28.5315 N per leg), with
 /// `rk4_max_step` set when given.
