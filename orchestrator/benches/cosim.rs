@@ -20,7 +20,7 @@ use ckcm::{ControlSettings, Hlcs, Integrator, Mechanism, Params, ReferenceTable,
 use criterion::{Criterion, criterion_group, criterion_main};
 use fmi2_import::{Fmu, Instance};
 use orchestrator::master::{Master, TrialSignals};
-use orchestrator::output::Recording;
+use orchestrator::output::RecordedRows;
 use orchestrator::scenario::Scenario;
 
 /// Communication step, s.
@@ -234,7 +234,7 @@ fn line_scenario(controller: &Path, plant: &Path) -> (Scenario, Vec<Fmu>) {
 
 /// Runs trial 0 and returns what trial 1 needs: a recording, signals and the iteration
 /// memory trial 0 learned.
-fn prime(master: &mut Master) -> (Recording, TrialSignals, Vec<Vec<f64>>) {
+fn prime(master: &mut Master) -> (RecordedRows, TrialSignals, Vec<Vec<f64>>) {
     let mut recording = master.new_recording();
     let mut signals = master.new_signals();
     master
@@ -253,7 +253,7 @@ fn prime(master: &mut Master) -> (Recording, TrialSignals, Vec<Vec<f64>>) {
 fn timed_trial(
     master: &mut Master,
     learned: &[Vec<f64>],
-    recording: Option<&mut Recording>,
+    recording: Option<&mut RecordedRows>,
     signals: &mut TrialSignals,
 ) -> Duration {
     master.set_memory(learned);

@@ -955,7 +955,9 @@ pub fn run_campaign(
                 scope,
                 move || {
                     if let Some(full) = &full {
-                        write_recording(&trial_file(dir, k, format), full, format.exporter())?;
+                        // The rows become columns here, off the stepping loop.
+                        let columns = full.to_recording();
+                        write_recording(&trial_file(dir, k, format), &columns, format.exporter())?;
                         crash.tick();
                     }
                     write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;

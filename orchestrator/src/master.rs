@@ -10,7 +10,7 @@ use std::ops::Range;
 use ckcm::learning::MemoryUpdate;
 use fmi2_import::{Fmu, ImportError, Instance};
 
-use crate::output::{Recording, RowStage, seconds};
+use crate::output::{RecordedRows, seconds};
 use crate::scenario::{Port, Scenario};
 use crate::variables::set_value;
 
@@ -321,8 +321,6 @@ pub struct Master<'s> {
     /// One sample: recorded columns, then the six leg errors (or six references and six
     /// true lengths), then x, y, z.
     row: Vec<f64>,
-    /// Recorded rows on their way to the recording's columns.
-    stage: RowStage,
     column_names: Vec<String>,
     has_error: bool,
     /// Whether the leg errors are reference − length rather than an error output.
@@ -510,7 +508,6 @@ impl<'s> Master<'s> {
             bus: vec![0.0; next],
             channels,
             row: vec![0.0; columns],
-            stage: RowStage::new(column_names.len()),
             column_names,
             wiring,
             has_error: metrics.is_some(),
@@ -545,10 +542,11 @@ impl<'s> Master<'s> {
         }
     }
 
-    /// A fresh recording with room for one trial.
-    pub fn new_recording(&self) -> Recording {
+    /// A fresh recording with room for one trial, in rows as the loop writes them
+    /// ([`RecordedRows::to_recording`] gives the columns).
+    pub fn new_recording(&self) -> RecordedRows {
         let rows = self.scenario.steps.div_ceil(self.scenario.record.interval);
-        Recording::with_capacity(self.column_names.clone(), rows)
+        RecordedRows::with_capacity(self.column_names.clone(), rows)
     }
 
     /// Full-rate signal storage for one trial.
@@ -630,7 +628,7 @@ impl<'s> Master<'s> {
     pub fn run_trial(
         &mut self,
         trial: usize,
-        recording: Option<&mut Recording>,
+        recording: Option<&mut RecordedRows>,
         signals: &mut TrialSignals,
         on_step: impl FnMut(usize),
     ) -> Result<(), MasterError> {
@@ -648,37 +646,28 @@ impl<'s> Master<'s> {
     pub fn run_trial_linked<L: MemoryLink>(
         &mut self,
         trial: usize,
-        mut recording: Option<&mut Recording>,
+        mut recording: Option<&mut RecordedRows>,
         signals: &mut TrialSignals,
         on_step: impl FnMut(usize),
         link: &mut L,
     ) -> Result<(), MasterError> {
         self.start_trial(trial)?;
         if let Some(r) = recording.as_deref_mut() {
-            r.time.clear();
-            for c in &mut r.columns {
-                c.clear();
-            }
+            r.clear();
         }
-        self.stage.clear();
-        let stepped = self.step_trial(trial, recording.as_deref_mut(), signals, on_step, link);
-        // The staged rows go in on failure too: a failed trial's recording keeps every
-        // step up to the failure.
-        if let Some(r) = recording {
-            self.stage.flush(r);
-        }
-        stepped?;
+        // A failed trial's recording keeps every step up to the failure.
+        self.step_trial(trial, recording, signals, on_step, link)?;
         for ch in &mut self.channels {
             ch.end_trial();
         }
         Ok(())
     }
 
-    /// The stepping loop of [`Master::run_trial_linked`]; recorded rows stay in the stage.
+    /// The stepping loop of [`Master::run_trial_linked`].
     fn step_trial<L: MemoryLink>(
         &mut self,
         trial: usize,
-        mut recording: Option<&mut Recording>,
+        mut recording: Option<&mut RecordedRows>,
         signals: &mut TrialSignals,
         mut on_step: impl FnMut(usize),
         link: &mut L,
@@ -810,7 +799,7 @@ impl<'s> Master<'s> {
             // The recording first: an unrecorded trial pays no division.
             if let Some(r) = recording.as_deref_mut() {
                 if n % interval == 0 {
-                    self.stage.push(t, &self.row[..ncols], r);
+                    r.push(t, &self.row[..ncols]);
                 }
             }
             if L::ACTIVE && ((n + 1) % CHUNK_STEPS == 0 || n + 1 == sc.steps) {

@@ -190,9 +190,15 @@ fn linked_trials_do_not_allocate_and_match_the_plain_ones() {
             "trial {trial}"
         );
         assert!(link.current.iter().any(|&u| u != 0.0));
-        assert_eq!(rec_linked.columns.len(), rec_plain.columns.len());
-        for (a, b) in rec_linked.columns.iter().zip(&rec_plain.columns) {
-            assert_eq!(bits(a), bits(b), "trial {trial}");
+        assert_eq!(rec_linked.len(), rec_plain.len());
+        assert!(!rec_plain.is_empty());
+        assert_eq!(bits(rec_linked.time()), bits(rec_plain.time()));
+        for n in 0..rec_plain.len() {
+            assert_eq!(
+                bits(rec_linked.row(n)),
+                bits(rec_plain.row(n)),
+                "trial {trial}"
+            );
         }
     }
 }

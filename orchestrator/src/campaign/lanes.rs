@@ -18,13 +18,13 @@ use indicatif::ProgressBar;
 
 use super::{CampaignError, TrialSummary};
 use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped};
-use crate::output::Recording;
+use crate::output::RecordedRows;
 use crate::scenario::Scenario;
 
 /// What a lane hands the campaign for one successful trial.
 pub(super) struct Finished {
     pub summary: TrialSummary,
-    pub recording: Option<Recording>,
+    pub recording: Option<RecordedRows>,
     /// The memory this trial wrote (read by the next), channel by channel.
     pub memory: Vec<Vec<f64>>,
 }

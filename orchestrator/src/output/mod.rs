@@ -19,8 +19,7 @@ pub use self::csv::{
     CsvExporter, CsvWithText, Exporter, read_recording_csv, write_recording, write_table_csv,
 };
 pub use self::parquet::ParquetExporter;
-pub use self::recording::Recording;
-pub(crate) use self::recording::RowStage;
+pub use self::recording::{RecordedRows, Recording};
 
 /// A simulation time for messages: to the nanosecond, trailing zeros dropped, so a time the
 /// master reached by adding steps reads as the user wrote it (0.943, not 0.9430000000000001).

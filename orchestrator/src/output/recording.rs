@@ -1,5 +1,5 @@
-//! In-memory signals of one trial, kept column-major because plots and norms read whole
-//! signals while the master loop appends one row per 1 ms step.
+//! In-memory signals of one trial: column-major for plots, norms and the exporters, which
+//! read whole signals, and row-major as the master loop writes them, one row per 1 ms step.
 
 /// One trial's recorded signals: a time column plus named columns of equal length.
 ///
@@ -91,82 +91,102 @@ impl Recording {
     }
 }
 
-/// Rows staged row-major before they reach a [`Recording`]'s columns in blocks.
-///
-/// Appending a row straight to the columns stores into one cache line per column, every
-/// row, and on a trial-sized recording those lines are rarely cached: the stores stall the
-/// master loop. Here a row is one sequential copy into a buffer that stays in L1, and each
-/// full block is moved into the columns a column at a time, 64 consecutive values each:
-/// 2 to 4 % less CPU per recorded trial (BENCHMARKS.md, round 19).
-#[derive(Debug, Clone)]
-pub(crate) struct RowStage {
-    width: usize,
+/// One trial's recorded signals as the master loop writes them: row-major, so that a step
+/// appends one contiguous row and nothing else, as the FMI-free floor the co-simulation is
+/// measured against does. Reordering them into the columns of a [`Recording`], which plots,
+/// norms and the exporters read, is left to whoever reads them: in `run` a writer thread,
+/// while the next trial steps. Moving rows into columns inside the loop cost a recorded
+/// trial 3–4 % of its time (BENCHMARKS.md, round 31).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RecordedRows {
+    names: Vec<String>,
     time: Vec<f64>,
+    /// Row `i` is `values[i * width..(i + 1) * width]`, `width` being `names.len()`.
     values: Vec<f64>,
 }
 
-impl RowStage {
-    /// Rows per block: 64 rows of a 32-column recording take 16 KiB.
-    pub const ROWS: usize = 64;
+/// Rows per block when reordering into columns: each column then takes 64 consecutive values
+/// from a block of rows that stays in the L1 cache (64 rows of 32 columns are 16 KiB).
+const BLOCK_ROWS: usize = 64;
 
-    /// An empty stage for rows of `width` values; allocates its block here, once.
-    pub fn new(width: usize) -> Self {
+impl RecordedRows {
+    /// Empty rows of the given column names, with room for `rows` rows, so that a trial of
+    /// known length never reallocates inside the stepping loop.
+    pub fn with_capacity(names: Vec<String>, rows: usize) -> Self {
         Self {
-            width,
-            time: Vec::with_capacity(Self::ROWS),
-            values: Vec::with_capacity(Self::ROWS * width),
+            time: Vec::with_capacity(rows),
+            values: Vec::with_capacity(rows * names.len()),
+            names,
         }
     }
 
-    /// Stages one row, moving the block into `rec` when it is full.
+    /// Column names, without the leading `time`.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Sample times in s.
+    pub fn time(&self) -> &[f64] {
+        &self.time
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// Whether there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+
+    /// Row `i`'s values, one per name.
     ///
     /// # Panics
-    /// If `values.len()` differs from the stage's width, as [`Recording::push_row`].
+    /// If `i` is not below [`RecordedRows::len`].
+    pub fn row(&self, i: usize) -> &[f64] {
+        let width = self.names.len();
+        &self.values[i * width..(i + 1) * width]
+    }
+
+    /// Appends one row. Allocates nothing when the capacity suffices.
+    ///
+    /// # Panics
+    /// If `values.len()` differs from the number of names, as [`Recording::push_row`].
     #[inline]
-    pub fn push(&mut self, t: f64, values: &[f64], rec: &mut Recording) {
+    pub fn push(&mut self, t: f64, values: &[f64]) {
         assert_eq!(
             values.len(),
-            self.width,
-            "RowStage::push: {} values for {} columns",
+            self.names.len(),
+            "RecordedRows::push: {} values for {} columns",
             values.len(),
-            self.width
+            self.names.len()
         );
         self.time.push(t);
         self.values.extend_from_slice(values);
-        if self.time.len() == Self::ROWS {
-            self.flush(rec);
-        }
     }
 
-    /// Moves every staged row into `rec` and empties the stage. Call it when the rows end,
-    /// on failure too: until then the last rows are only here.
-    ///
-    /// # Panics
-    /// If `rec` has a different number of columns than the stage's width.
-    pub fn flush(&mut self, rec: &mut Recording) {
-        assert_eq!(
-            rec.columns.len(),
-            self.width,
-            "RowStage::flush: {} columns in the recording, rows of {}",
-            rec.columns.len(),
-            self.width
-        );
-        if self.time.is_empty() {
-            return;
-        }
-        rec.time.extend_from_slice(&self.time);
-        if self.width > 0 {
-            for (c, column) in rec.columns.iter_mut().enumerate() {
-                column.extend(self.values[c..].iter().step_by(self.width));
-            }
-        }
-        self.clear();
-    }
-
-    /// Drops the staged rows without moving them anywhere.
+    /// Drops every row and keeps the capacity.
     pub fn clear(&mut self) {
         self.time.clear();
         self.values.clear();
+    }
+
+    /// The same signals as a column-major [`Recording`].
+    pub fn to_recording(&self) -> Recording {
+        let mut rec = Recording::with_capacity(self.names.clone(), self.len());
+        rec.time.extend_from_slice(&self.time);
+        let width = self.names.len();
+        if width > 0 {
+            // A block of rows at a time, so each row's cache lines are read once, not once
+            // per column.
+            for block in self.values.chunks(BLOCK_ROWS * width) {
+                for (c, column) in rec.columns.iter_mut().enumerate() {
+                    column.extend(block.chunks_exact(width).map(|row| row[c]));
+                }
+            }
+        }
+        rec
     }
 }
 
@@ -220,56 +240,56 @@ mod tests {
         );
     }
 
-    /// Rows through the stage, in blocks and a partial block, equal the same rows pushed
-    /// one by one.
+    /// Rows reordered into columns, over several blocks and a partial one, equal the same
+    /// rows pushed into a recording one by one.
     #[test]
-    fn staged_rows_equal_rows_pushed_directly() {
+    fn rows_make_the_recording_of_the_same_rows() {
         let names: Vec<String> = (0..3).map(|c| format!("c{c}")).collect();
         let mut direct = Recording::new(names.clone());
-        let mut staged = Recording::new(names);
-        let mut stage = RowStage::new(3);
-        let rows = 2 * RowStage::ROWS + 5;
-        for i in 0..rows {
+        let mut rows = RecordedRows::with_capacity(names, 4);
+        let n = 2 * BLOCK_ROWS + 5;
+        for i in 0..n {
             let t = i as f64 * 1e-3;
             let row = [t, -(i as f64), 0.5 * i as f64];
             direct.push_row(t, &row);
-            stage.push(t, &row, &mut staged);
-            // Full blocks move on their own, the rest waits for the flush.
-            assert_eq!(staged.len(), (i + 1) / RowStage::ROWS * RowStage::ROWS);
+            rows.push(t, &row);
         }
-        stage.flush(&mut staged);
-        assert_eq!(staged, direct);
-        assert_eq!(staged.shape_error(), None);
-        // An empty stage flushes nothing.
-        stage.flush(&mut staged);
-        assert_eq!(staged.len(), rows);
+        assert_eq!(rows.len(), n);
+        assert_eq!(rows.row(7), [7e-3, -7.0, 3.5]);
+        let rec = rows.to_recording();
+        assert_eq!(rec, direct);
+        assert_eq!(rec.shape_error(), None);
     }
 
-    /// A recording without columns still gets its times.
+    /// Rows without columns still keep their times.
     #[test]
-    fn staged_rows_without_columns_keep_their_times() {
-        let mut r = Recording::new(Vec::new());
-        let mut stage = RowStage::new(0);
+    fn rows_without_columns_keep_their_times() {
+        let mut rows = RecordedRows::with_capacity(Vec::new(), 0);
         for i in 0..3 {
-            stage.push(f64::from(i), &[], &mut r);
+            rows.push(f64::from(i), &[]);
         }
-        stage.flush(&mut r);
-        assert_eq!(r.time, [0.0, 1.0, 2.0]);
+        let rec = rows.to_recording();
+        assert_eq!(rec.time, [0.0, 1.0, 2.0]);
+        assert!(rec.columns.is_empty());
     }
 
     #[test]
-    fn cleared_stage_drops_its_rows() {
-        let mut r = Recording::new(names());
-        let mut stage = RowStage::new(2);
-        stage.push(0.0, &[1.0, 2.0], &mut r);
-        stage.clear();
-        stage.flush(&mut r);
-        assert!(r.is_empty());
+    fn cleared_rows_keep_their_capacity() {
+        let mut rows = RecordedRows::with_capacity(names(), 10);
+        let before = rows.values.as_ptr();
+        rows.push(0.0, &[1.0, 2.0]);
+        rows.clear();
+        assert!(rows.is_empty());
+        for i in 0..10 {
+            rows.push(f64::from(i), &[1.0, 2.0]);
+        }
+        assert_eq!(before, rows.values.as_ptr());
+        assert!(rows.to_recording().columns.iter().all(|c| c.len() == 10));
     }
 
     #[test]
     #[should_panic(expected = "1 values for 2 columns")]
-    fn stage_rejects_wrong_width() {
-        RowStage::new(2).push(0.0, &[1.0], &mut Recording::new(names()));
+    fn rows_reject_wrong_width() {
+        RecordedRows::with_capacity(names(), 1).push(0.0, &[1.0]);
     }
 }
