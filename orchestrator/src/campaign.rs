@@ -928,6 +928,13 @@ pub fn run_campaign(
                 })?;
                 crash.tick();
             }
+            // What a writer handed back: rows for the next recorded trial, and columns for
+            // this trial's rows.
+            let spare = record_this.then(|| writers.spare.take()).flatten();
+            let (spare_rows, mut columns) = match spare {
+                Some((rows, columns)) => (Some(rows), columns),
+                None => (None, Recording::default()),
+            };
             let (memory, full) = match (from_lane, &mut one_lane) {
                 (Some(done), _) => {
                     summaries.push(done.summary);
@@ -939,10 +946,7 @@ pub fn run_campaign(
                 (None, Some((master, recording, signals))) => {
                     summaries.push(TrialSummary::compute(k, scenario, signals));
                     let full = record_this.then(|| {
-                        let next = writers
-                            .spare
-                            .take()
-                            .unwrap_or_else(|| master.new_recording());
+                        let next = spare_rows.unwrap_or_else(|| master.new_recording());
                         std::mem::replace(recording, next)
                     });
                     (memory_bytes(&master.memory()), full)
@@ -956,13 +960,13 @@ pub fn run_campaign(
                 move || {
                     if let Some(full) = &full {
                         // The rows become columns here, off the stepping loop.
-                        let columns = full.to_recording();
+                        full.columns_into(&mut columns);
                         write_recording(&trial_file(dir, k, format), &columns, format.exporter())?;
                         crash.tick();
                     }
                     write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;
                     crash.tick();
-                    Ok(full)
+                    Ok(full.map(|rows| (rows, columns)))
                 },
                 move || commit(k, &committed),
             )?;

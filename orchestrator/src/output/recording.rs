@@ -174,9 +174,26 @@ impl RecordedRows {
 
     /// The same signals as a column-major [`Recording`].
     pub fn to_recording(&self) -> Recording {
-        let mut rec = Recording::with_capacity(self.names.clone(), self.len());
+        let mut rec = Recording::default();
+        self.columns_into(&mut rec);
+        rec
+    }
+
+    /// [`RecordedRows::to_recording`] into `rec`, replacing what it held and reusing its
+    /// buffers: a writer that reorders one trial after another allocates (and faults in)
+    /// its columns once.
+    pub fn columns_into(&self, rec: &mut Recording) {
+        if rec.names != self.names {
+            rec.names.clone_from(&self.names);
+        }
+        rec.columns.resize_with(self.names.len(), Vec::new);
+        rec.time.clear();
         rec.time.extend_from_slice(&self.time);
         let width = self.names.len();
+        for column in &mut rec.columns {
+            column.clear();
+            column.reserve(self.len());
+        }
         if width > 0 {
             // A block of rows at a time, so each row's cache lines are read once, not once
             // per column.
@@ -186,7 +203,6 @@ impl RecordedRows {
                 }
             }
         }
-        rec
     }
 }
 
@@ -285,6 +301,20 @@ mod tests {
         }
         assert_eq!(before, rows.values.as_ptr());
         assert!(rows.to_recording().columns.iter().all(|c| c.len() == 10));
+    }
+
+    /// Reordering into a recording that held other signals replaces them all.
+    #[test]
+    fn columns_into_replaces_what_the_recording_held() {
+        let mut rec = Recording::new(vec!["x".into(), "y".into(), "z".into()]);
+        rec.push_row(5.0, &[9.0, 9.0, 9.0]);
+        rec.push_row(6.0, &[9.0, 9.0, 9.0]);
+        let mut rows = RecordedRows::with_capacity(names(), 1);
+        rows.push(0.0, &[1.0, 2.0]);
+        rows.columns_into(&mut rec);
+        assert_eq!(rec, rows.to_recording());
+        assert_eq!(rec.column("b"), Some(&[2.0][..]));
+        assert_eq!(rec.shape_error(), None);
     }
 
     #[test]
