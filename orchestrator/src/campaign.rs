@@ -36,7 +36,7 @@ use self::writers::Writers;
 use crate::master::{Master, MasterError, TrialSignals};
 use crate::output::{
     CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, write_atomic,
-    write_recording, write_table_csv,
+    write_recorded_rows, write_table_csv,
 };
 use crate::scenario::{RecordFormat, Scenario, ScenarioError, as_run_text};
 
@@ -928,13 +928,6 @@ pub fn run_campaign(
                 })?;
                 crash.tick();
             }
-            // What a writer handed back: rows for the next recorded trial, and columns for
-            // this trial's rows.
-            let spare = record_this.then(|| writers.spare.take()).flatten();
-            let (spare_rows, mut columns) = match spare {
-                Some((rows, columns)) => (Some(rows), columns),
-                None => (None, Recording::default()),
-            };
             let (memory, full) = match (from_lane, &mut one_lane) {
                 (Some(done), _) => {
                     summaries.push(done.summary);
@@ -946,7 +939,10 @@ pub fn run_campaign(
                 (None, Some((master, recording, signals))) => {
                     summaries.push(TrialSummary::compute(k, scenario, signals));
                     let full = record_this.then(|| {
-                        let next = spare_rows.unwrap_or_else(|| master.new_recording());
+                        let next = writers
+                            .spare
+                            .take()
+                            .unwrap_or_else(|| master.new_recording());
                         std::mem::replace(recording, next)
                     });
                     (memory_bytes(&master.memory()), full)
@@ -959,14 +955,12 @@ pub fn run_campaign(
                 scope,
                 move || {
                     if let Some(full) = &full {
-                        // The rows become columns here, off the stepping loop.
-                        full.columns_into(&mut columns);
-                        write_recording(&trial_file(dir, k, format), &columns, format.exporter())?;
+                        write_recorded_rows(&trial_file(dir, k, format), full, format.exporter())?;
                         crash.tick();
                     }
                     write_atomic(&memory_file(dir, k), |w| w.write_all(&memory))?;
                     crash.tick();
-                    Ok(full.map(|rows| (rows, columns)))
+                    Ok(full)
                 },
                 move || commit(k, &committed),
             )?;

@@ -10,7 +10,7 @@ use std::sync::mpsc::sync_channel;
 
 use ::csv::{ErrorKind, ReaderBuilder, StringRecord, Writer};
 
-use super::{OutputError, Recording, write_atomic};
+use super::{OutputError, RecordedRows, Recording, write_atomic};
 
 /// A file format for recordings. Behind a trait so new formats can be added without touching
 /// the code that decides what to record and where.
@@ -20,6 +20,12 @@ pub trait Exporter {
     /// Serialises `rec` into `w`. Fails with [`io::ErrorKind::InvalidData`] if the columns of
     /// `rec` are not all as long as its time vector.
     fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()>;
+    /// Serialises a master's rows into `w`, the same bytes as [`Exporter::write`] of
+    /// [`RecordedRows::to_recording`]. A format that can read the rows as they are overrides
+    /// it, so that a writer holds no second copy of the trial.
+    fn write_rows(&self, rows: &RecordedRows, w: &mut dyn Write) -> io::Result<()> {
+        self.write(&rows.to_recording(), w)
+    }
 }
 
 /// Comma-separated values: header `time,<names...>`, one row per sample, every number in the
@@ -34,6 +40,11 @@ impl Exporter for CsvExporter {
 
     fn write(&self, rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
         write_csv(rec, &[], w)
+    }
+
+    fn write_rows(&self, rows: &RecordedRows, w: &mut dyn Write) -> io::Result<()> {
+        write_header(rows.names(), w)?;
+        write_number_rows(rows, w)
     }
 }
 
@@ -75,17 +86,12 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
     if let Some(message) = rec.shape_error() {
         return Err(io::Error::new(io::ErrorKind::InvalidData, message));
     }
-    let mut out = Writer::from_writer(w);
-    out.write_field("time")?;
-    for name in &rec.names {
-        out.write_field(name)?;
-    }
-    out.write_record(None::<&[u8]>)?;
     if text.is_empty() {
-        out.flush()?;
-        let w = out.into_inner().map_err(|e| e.into_error())?;
+        write_header(&rec.names, w)?;
         return write_number_rows(rec, w);
     }
+    let mut out = Writer::from_writer(w);
+    write_names(&mut out, &rec.names)?;
     // Per column: its text, if it is a text column.
     let texts: Vec<Option<&Vec<String>>> = (0..rec.columns.len())
         .map(|c| text.iter().find(|(i, _)| *i == c).map(|(_, t)| t))
@@ -105,6 +111,64 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
     out.flush()
 }
 
+/// The header line: `time`, then `names`, quoted by the `csv` crate where needed.
+fn write_header(names: &[String], w: &mut dyn Write) -> io::Result<()> {
+    let mut out = Writer::from_writer(w);
+    write_names(&mut out, names)?;
+    out.flush()
+}
+
+fn write_names<W: Write>(out: &mut Writer<W>, names: &[String]) -> io::Result<()> {
+    out.write_field("time")?;
+    for name in names {
+        out.write_field(name)?;
+    }
+    out.write_record(None::<&[u8]>)?;
+    Ok(())
+}
+
+/// Numbers read a row at a time, whichever way they are stored: a [`Recording`]'s columns,
+/// or the rows a master recorded.
+trait NumberRows: Sync {
+    fn len(&self) -> usize;
+    fn width(&self) -> usize;
+    fn time_at(&self, row: usize) -> f64;
+    /// Calls `f` with row `row`'s values in column order.
+    fn each_in_row(&self, row: usize, f: impl FnMut(f64));
+}
+
+impl NumberRows for Recording {
+    fn len(&self) -> usize {
+        self.time.len()
+    }
+    fn width(&self) -> usize {
+        self.columns.len()
+    }
+    fn time_at(&self, row: usize) -> f64 {
+        self.time[row]
+    }
+    fn each_in_row(&self, row: usize, mut f: impl FnMut(f64)) {
+        for column in &self.columns {
+            f(column[row]);
+        }
+    }
+}
+
+impl NumberRows for RecordedRows {
+    fn len(&self) -> usize {
+        RecordedRows::len(self)
+    }
+    fn width(&self) -> usize {
+        self.names().len()
+    }
+    fn time_at(&self, row: usize) -> f64 {
+        self.time()[row]
+    }
+    fn each_in_row(&self, row: usize, f: impl FnMut(f64)) {
+        self.row(row).iter().copied().for_each(f);
+    }
+}
+
 /// The rows of a recording without text columns. Numbers never need quotes (digits, `.`,
 /// `-`, `e`, `NaN`, `inf`), so the rows are assembled here rather than field by field
 /// through the `csv` crate, whose per-field quoting scan cost as much as formatting the
@@ -116,7 +180,7 @@ fn write_csv(rec: &Recording, text: &[(usize, Vec<String>)], w: &mut dyn Write) 
 /// run, when the other cores have nothing left to do, and its formatting was most of the
 /// time between the last trial's end and the run's (BENCHMARKS.md, round 16). At most two
 /// formatted blocks wait per helper thread, so the memory does not grow with the trial.
-fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
+fn write_number_rows(rec: &impl NumberRows, w: &mut dyn Write) -> io::Result<()> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     write_number_rows_on(rec, w, cores.min(MOST_FORMAT_THREADS))
 }
@@ -126,7 +190,11 @@ fn write_number_rows(rec: &Recording, w: &mut dyn Write) -> io::Result<()> {
 const MOST_FORMAT_THREADS: usize = 4;
 
 /// [`write_number_rows`] on at most `threads` threads (the caller's among them).
-fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> io::Result<()> {
+fn write_number_rows_on(
+    rec: &impl NumberRows,
+    w: &mut dyn Write,
+    threads: usize,
+) -> io::Result<()> {
     let rows = block_rows(rec);
     let blocks = rec.len().div_ceil(rows);
     let threads = threads.min(blocks).max(1);
@@ -184,20 +252,20 @@ fn write_number_rows_on(rec: &Recording, w: &mut dyn Write, threads: usize) -> i
 const BLOCK_NUMBERS: usize = 1 << 15;
 
 /// Rows per block of `rec`: [`BLOCK_NUMBERS`] numbers, at least one row.
-fn block_rows(rec: &Recording) -> usize {
-    (BLOCK_NUMBERS / (rec.columns.len() + 1)).max(1)
+fn block_rows(rec: &impl NumberRows) -> usize {
+    (BLOCK_NUMBERS / (rec.width() + 1)).max(1)
 }
 
 /// Appends the text of at most `rows` rows from row `start` on to `bytes`.
-fn format_block(rec: &Recording, start: usize, rows: usize, bytes: &mut Vec<u8>) {
+fn format_block(rec: &impl NumberRows, start: usize, rows: usize, bytes: &mut Vec<u8>) {
     let mut numbers = Numbers::default();
     let end = (start + rows).min(rec.len());
     for row in start..end {
-        bytes.extend_from_slice(numbers.format(rec.time[row]).as_bytes());
-        for column in &rec.columns {
+        bytes.extend_from_slice(numbers.format(rec.time_at(row)).as_bytes());
+        rec.each_in_row(row, |v| {
             bytes.push(b',');
-            bytes.extend_from_slice(numbers.format(column[row]).as_bytes());
-        }
+            bytes.extend_from_slice(numbers.format(v).as_bytes());
+        });
         bytes.push(b'\n');
     }
 }
@@ -269,6 +337,15 @@ pub fn write_recording(
     exporter: &dyn Exporter,
 ) -> Result<(), OutputError> {
     write_atomic(path, |w| exporter.write(rec, w))
+}
+
+/// [`write_recording`] of a master's rows, through [`Exporter::write_rows`].
+pub fn write_recorded_rows(
+    path: &Path,
+    rows: &RecordedRows,
+    exporter: &dyn Exporter,
+) -> Result<(), OutputError> {
+    write_atomic(path, |w| exporter.write_rows(rows, w))
 }
 
 /// Reads a CSV written by [`CsvExporter`] (used by `--resume` and tests). The first column
@@ -658,6 +735,40 @@ mod tests {
             let mut rows = Vec::new();
             write_number_rows_on(&wide, &mut rows, threads).unwrap();
             assert!(rows == expected[header..], "{threads} threads");
+        }
+    }
+
+    /// A master's rows written as they are: the bytes of the same signals as columns, on
+    /// every awkward value, over several blocks and formatting threads, with names that need
+    /// quotes and with no columns.
+    #[test]
+    fn rows_write_the_bytes_of_their_columns() {
+        let names = vec!["a".to_string(), "b, \"quoted\"".to_string()];
+        let mut wide = RecordedRows::with_capacity(names, 0);
+        for i in 0..30_000 {
+            let v = AWKWARD[i % AWKWARD.len()];
+            wide.push(i as f64 * 1e-3, &[v, -v * 1e-7]);
+        }
+        let mut empty = RecordedRows::with_capacity(Vec::new(), 0);
+        for i in 0..3 {
+            empty.push(f64::from(i), &[]);
+        }
+        for rows in [&wide, &empty] {
+            let mut ours = Vec::new();
+            CsvExporter.write_rows(rows, &mut ours).unwrap();
+            let mut theirs = Vec::new();
+            CsvExporter
+                .write(&rows.to_recording(), &mut theirs)
+                .unwrap();
+            assert!(ours == theirs, "{} columns", rows.names().len());
+        }
+        assert_eq!(wide.len().div_ceil(block_rows(&wide)), 3);
+        let columns = wide.to_recording();
+        for threads in [1, 2, 3, 64] {
+            let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+            write_number_rows_on(&wide, &mut ours, threads).unwrap();
+            write_number_rows_on(&columns, &mut theirs, threads).unwrap();
+            assert!(ours == theirs, "{threads} threads");
         }
     }
 

@@ -93,10 +93,10 @@ impl Recording {
 
 /// One trial's recorded signals as the master loop writes them: row-major, so that a step
 /// appends one contiguous row and nothing else, as the FMI-free floor the co-simulation is
-/// measured against does. Reordering them into the columns of a [`Recording`], which plots,
-/// norms and the exporters read, is left to whoever reads them: in `run` a writer thread,
-/// while the next trial steps. Moving rows into columns inside the loop cost a recorded
-/// trial 3–4 % of its time (BENCHMARKS.md, round 31).
+/// measured against does. Moving rows into columns inside the loop cost a recorded trial
+/// 3–4 % of its time (BENCHMARKS.md, round 31). `run`'s writer threads export the rows as
+/// they are ([`crate::output::Exporter::write_rows`]), while the next trial steps; plots and
+/// norms read the columns of [`RecordedRows::to_recording`].
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RecordedRows {
     names: Vec<String>,
@@ -174,26 +174,9 @@ impl RecordedRows {
 
     /// The same signals as a column-major [`Recording`].
     pub fn to_recording(&self) -> Recording {
-        let mut rec = Recording::default();
-        self.columns_into(&mut rec);
-        rec
-    }
-
-    /// [`RecordedRows::to_recording`] into `rec`, replacing what it held and reusing its
-    /// buffers: a writer that reorders one trial after another allocates (and faults in)
-    /// its columns once.
-    pub fn columns_into(&self, rec: &mut Recording) {
-        if rec.names != self.names {
-            rec.names.clone_from(&self.names);
-        }
-        rec.columns.resize_with(self.names.len(), Vec::new);
-        rec.time.clear();
+        let mut rec = Recording::with_capacity(self.names.clone(), self.len());
         rec.time.extend_from_slice(&self.time);
         let width = self.names.len();
-        for column in &mut rec.columns {
-            column.clear();
-            column.reserve(self.len());
-        }
         if width > 0 {
             // A block of rows at a time, so each row's cache lines are read once, not once
             // per column.
@@ -203,6 +186,7 @@ impl RecordedRows {
                 }
             }
         }
+        rec
     }
 }
 
@@ -301,20 +285,6 @@ mod tests {
         }
         assert_eq!(before, rows.values.as_ptr());
         assert!(rows.to_recording().columns.iter().all(|c| c.len() == 10));
-    }
-
-    /// Reordering into a recording that held other signals replaces them all.
-    #[test]
-    fn columns_into_replaces_what_the_recording_held() {
-        let mut rec = Recording::new(vec!["x".into(), "y".into(), "z".into()]);
-        rec.push_row(5.0, &[9.0, 9.0, 9.0]);
-        rec.push_row(6.0, &[9.0, 9.0, 9.0]);
-        let mut rows = RecordedRows::with_capacity(names(), 1);
-        rows.push(0.0, &[1.0, 2.0]);
-        rows.columns_into(&mut rec);
-        assert_eq!(rec, rows.to_recording());
-        assert_eq!(rec.column("b"), Some(&[2.0][..]));
-        assert_eq!(rec.shape_error(), None);
     }
 
     #[test]
