@@ -32,16 +32,34 @@ impl Exporter for ParquetExporter {
         if let Some(message) = rec.shape_error() {
             return Err(io::Error::new(io::ErrorKind::InvalidData, message));
         }
-        let column = |c: usize| Cow::Borrowed(rec.columns[c].as_slice());
-        write_all(to_parquet(&rec.names, &rec.time, column), w)
+        let columns = rec.columns.iter().map(|c| Cow::Borrowed(c.as_slice()));
+        write_all(to_parquet(&rec.names, &rec.time, columns), w)
     }
 
-    /// One column at a time out of the rows, so the writer never holds the trial twice.
+    /// A few columns at a time out of the rows, so that the writer never holds the trial
+    /// twice and reads the rows a few times only.
     fn write_rows(&self, rows: &RecordedRows, w: &mut dyn Write) -> io::Result<()> {
-        let column = |c: usize| Cow::Owned((0..rows.len()).map(|n| rows.row(n)[c]).collect());
-        write_all(to_parquet(rows.names(), rows.time(), column), w)
+        let width = rows.names().len();
+        let columns = (0..width).step_by(GROUP).flat_map(|first| {
+            let group = first..(first + GROUP).min(width);
+            let mut out: Vec<Vec<f64>> = group
+                .clone()
+                .map(|_| Vec::with_capacity(rows.len()))
+                .collect();
+            for row in rows.rows() {
+                for (column, &v) in out.iter_mut().zip(&row[group.clone()]) {
+                    column.push(v);
+                }
+            }
+            out.into_iter().map(Cow::Owned)
+        });
+        write_all(to_parquet(rows.names(), rows.time(), columns), w)
     }
 }
+
+/// Columns taken out of a master's rows in one pass: eight columns of a 15 s trial at 1 ms
+/// are under 1 MB.
+const GROUP: usize = 8;
 
 fn write_all(bytes: Result<Vec<u8>, ParquetError>, w: &mut dyn Write) -> io::Result<()> {
     // The writer needs an owned `Send` sink; the file is a few MB per trial.
@@ -56,11 +74,11 @@ fn write_all(bytes: Result<Vec<u8>, ParquetError>, w: &mut dyn Write) -> io::Res
     w.flush()
 }
 
-/// The file of `time` and the columns `column(0)`, `column(1)`, … named `names`.
+/// The file of `time` and `columns`, named `names`.
 fn to_parquet<'a>(
     names: &[String],
     time: &'a [f64],
-    column: impl Fn(usize) -> Cow<'a, [f64]>,
+    columns: impl Iterator<Item = Cow<'a, [f64]>>,
 ) -> Result<Vec<u8>, ParquetError> {
     let field = |name: &str| {
         Type::primitive_type_builder(name, PhysicalType::DOUBLE)
@@ -86,7 +104,7 @@ fn to_parquet<'a>(
     );
     let mut writer = SerializedFileWriter::new(Vec::new(), schema, props)?;
     let mut group = writer.next_row_group()?;
-    let mut data = std::iter::once(Cow::Borrowed(time)).chain((0..names.len()).map(column));
+    let mut data = std::iter::once(Cow::Borrowed(time)).chain(columns);
     while let Some(mut col) = group.next_column()? {
         let values = data
             .next()
@@ -142,14 +160,17 @@ mod tests {
         }
     }
 
-    /// A master's rows, written a column at a time out of the rows, make the same file as
-    /// the same signals as columns; with no columns too.
+    /// A master's rows, written a few columns at a time out of the rows, make the same file
+    /// as the same signals as columns; with no columns too.
     #[test]
     fn rows_write_the_bytes_of_their_columns() {
-        let mut wide = RecordedRows::with_capacity(vec!["a".into(), "b".into()], 0);
+        // Two groups of columns and a partial one.
+        let names: Vec<String> = (0..2 * GROUP + 3).map(|c| format!("c{c}")).collect();
+        let mut wide = RecordedRows::with_capacity(names, 0);
         for i in 0..1000 {
             let x = f64::from(i);
-            wide.push(x * 1e-3, &[x.sin(), -0.0 * x]);
+            let row: Vec<f64> = (0..2 * GROUP + 3).map(|c| (x + c as f64).sin()).collect();
+            wide.push(x * 1e-3, &row);
         }
         let mut empty = RecordedRows::with_capacity(Vec::new(), 0);
         empty.push(0.0, &[]);

@@ -97,27 +97,51 @@ impl Recording {
 /// 3–4 % of its time (BENCHMARKS.md, round 31). `run`'s writer threads export the rows as
 /// they are ([`crate::output::Exporter::write_rows`]), while the next trial steps; plots and
 /// norms read the columns of [`RecordedRows::to_recording`].
-#[derive(Debug, Clone, PartialEq, Default)]
+///
+/// The rows are kept in blocks of at most [`BLOCK_VALUES`] values rather than in one buffer
+/// for the trial: glibc serves a request that large from `mmap`, and once such a block is
+/// freed it raises its threshold and takes the next ones from its per-thread heaps, which
+/// fragment. With one 3.7 MB buffer per trial, `paper --jobs 4` peaked 5–10 MB higher
+/// (BENCHMARKS.md, round 31); the blocks are as large as a column of the columnar recording.
+#[derive(Debug, Clone, Default)]
 pub struct RecordedRows {
     names: Vec<String>,
     time: Vec<f64>,
-    /// Row `i` is `values[i * width..(i + 1) * width]`, `width` being `names.len()`.
-    values: Vec<f64>,
+    /// The rows in order, [`RecordedRows::block_rows`] to a block; the blocks after the one
+    /// being filled are empty (room kept from an earlier trial or reserved up front).
+    blocks: Vec<Vec<f64>>,
+    /// The block being filled.
+    filling: usize,
 }
+
+/// Most values in one block of [`RecordedRows`]: 120 KiB, under glibc's initial 128 KiB
+/// `mmap` threshold.
+const BLOCK_VALUES: usize = 15 * 1024;
 
 /// Rows per block when reordering into columns: each column then takes 64 consecutive values
 /// from a block of rows that stays in the L1 cache (64 rows of 32 columns are 16 KiB).
-const BLOCK_ROWS: usize = 64;
+const TRANSPOSE_ROWS: usize = 64;
 
 impl RecordedRows {
     /// Empty rows of the given column names, with room for `rows` rows, so that a trial of
-    /// known length never reallocates inside the stepping loop.
+    /// known length never allocates inside the stepping loop.
     pub fn with_capacity(names: Vec<String>, rows: usize) -> Self {
-        Self {
+        let mut this = Self {
             time: Vec::with_capacity(rows),
-            values: Vec::with_capacity(rows * names.len()),
+            blocks: Vec::new(),
+            filling: 0,
             names,
-        }
+        };
+        let per_block = this.block_rows();
+        let blocks = rows.div_ceil(per_block).max(1);
+        let values = per_block * this.names.len();
+        this.blocks = (0..blocks).map(|_| Vec::with_capacity(values)).collect();
+        this
+    }
+
+    /// Rows per block: as many as [`BLOCK_VALUES`] holds, at least one.
+    fn block_rows(&self) -> usize {
+        (BLOCK_VALUES / self.names.len().max(1)).max(1)
     }
 
     /// Column names, without the leading `time`.
@@ -145,8 +169,25 @@ impl RecordedRows {
     /// # Panics
     /// If `i` is not below [`RecordedRows::len`].
     pub fn row(&self, i: usize) -> &[f64] {
+        assert!(i < self.len(), "row {i} of {}", self.len());
         let width = self.names.len();
-        &self.values[i * width..(i + 1) * width]
+        if width == 0 {
+            return &[];
+        }
+        let per_block = self.block_rows();
+        let at = i % per_block * width;
+        &self.blocks[i / per_block][at..at + width]
+    }
+
+    /// Every row in order, one per time.
+    pub fn rows(&self) -> impl Iterator<Item = &[f64]> {
+        let width = self.names.len();
+        // Rows without values are not in the blocks: one empty row per time.
+        let empty = if width == 0 { self.len() } else { 0 };
+        self.blocks
+            .iter()
+            .flat_map(move |b| b.chunks_exact(width.max(1)))
+            .chain(std::iter::repeat_n(&[][..], empty))
     }
 
     /// Appends one row. Allocates nothing when the capacity suffices.
@@ -162,14 +203,36 @@ impl RecordedRows {
             values.len(),
             self.names.len()
         );
+        let full = self
+            .blocks
+            .get(self.filling)
+            .is_none_or(|b| b.len() + values.len() > b.capacity());
+        if full {
+            self.next_block();
+        }
+        self.blocks[self.filling].extend_from_slice(values);
         self.time.push(t);
-        self.values.extend_from_slice(values);
+    }
+
+    /// Moves on to the next block, reserving it if there is none.
+    #[cold]
+    fn next_block(&mut self) {
+        if !self.blocks.is_empty() {
+            self.filling += 1;
+        }
+        if self.filling == self.blocks.len() {
+            let values = self.block_rows() * self.names.len();
+            self.blocks.push(Vec::with_capacity(values));
+        }
     }
 
     /// Drops every row and keeps the capacity.
     pub fn clear(&mut self) {
         self.time.clear();
-        self.values.clear();
+        for b in &mut self.blocks {
+            b.clear();
+        }
+        self.filling = 0;
     }
 
     /// The same signals as a column-major [`Recording`].
@@ -178,15 +241,26 @@ impl RecordedRows {
         rec.time.extend_from_slice(&self.time);
         let width = self.names.len();
         if width > 0 {
-            // A block of rows at a time, so each row's cache lines are read once, not once
-            // per column.
-            for block in self.values.chunks(BLOCK_ROWS * width) {
+            // A few rows at a time, so each row's cache lines are read once, not once per
+            // column.
+            for rows in self
+                .blocks
+                .iter()
+                .flat_map(|b| b.chunks(TRANSPOSE_ROWS * width))
+            {
                 for (c, column) in rec.columns.iter_mut().enumerate() {
-                    column.extend(block.chunks_exact(width).map(|row| row[c]));
+                    column.extend(rows.chunks_exact(width).map(|row| row[c]));
                 }
             }
         }
         rec
+    }
+}
+
+/// Equal names, times and rows, however the rows are laid out in blocks.
+impl PartialEq for RecordedRows {
+    fn eq(&self, other: &Self) -> bool {
+        self.names == other.names && self.time == other.time && self.rows().eq(other.rows())
     }
 }
 
@@ -240,51 +314,94 @@ mod tests {
         );
     }
 
-    /// Rows reordered into columns, over several blocks and a partial one, equal the same
-    /// rows pushed into a recording one by one.
+    /// Rows reordered into columns, over several blocks and a partial one (of storage and
+    /// of the reordering), equal the same rows pushed into a recording one by one; rows read
+    /// back one by one and in order are the rows pushed.
     #[test]
     fn rows_make_the_recording_of_the_same_rows() {
         let names: Vec<String> = (0..3).map(|c| format!("c{c}")).collect();
         let mut direct = Recording::new(names.clone());
-        let mut rows = RecordedRows::with_capacity(names, 4);
-        let n = 2 * BLOCK_ROWS + 5;
+        // Room for 4 rows: the blocks past the first are reserved as the rows come.
+        let mut rows = RecordedRows::with_capacity(names.clone(), 4);
+        let per_block = BLOCK_VALUES / 3;
+        let n = 2 * per_block + TRANSPOSE_ROWS + 5;
+        let row_of = |i: usize| [i as f64 * 1e-3, -(i as f64), 0.5 * i as f64];
         for i in 0..n {
-            let t = i as f64 * 1e-3;
-            let row = [t, -(i as f64), 0.5 * i as f64];
-            direct.push_row(t, &row);
-            rows.push(t, &row);
+            direct.push_row(row_of(i)[0], &row_of(i));
+            rows.push(row_of(i)[0], &row_of(i));
         }
         assert_eq!(rows.len(), n);
-        assert_eq!(rows.row(7), [7e-3, -7.0, 3.5]);
+        assert_eq!(rows.blocks.len(), 3);
+        for i in [0, 7, per_block - 1, per_block, 2 * per_block, n - 1] {
+            assert_eq!(rows.row(i), row_of(i), "row {i}");
+        }
+        assert!(
+            rows.rows().eq((0..n)
+                .map(row_of)
+                .collect::<Vec<_>>()
+                .iter()
+                .map(|r| &r[..]))
+        );
         let rec = rows.to_recording();
         assert_eq!(rec, direct);
         assert_eq!(rec.shape_error(), None);
+        // The same rows with room for all of them up front: laid out alike, and equal.
+        let mut roomy = RecordedRows::with_capacity(names, n);
+        for i in 0..n {
+            roomy.push(row_of(i)[0], &row_of(i));
+        }
+        assert_eq!(roomy, rows);
+        roomy.push(1.0, &[0.0; 3]);
+        assert_ne!(roomy, rows);
     }
 
-    /// Rows without columns still keep their times.
+    /// Rows without columns still keep their times, and read as empty rows.
     #[test]
     fn rows_without_columns_keep_their_times() {
         let mut rows = RecordedRows::with_capacity(Vec::new(), 0);
         for i in 0..3 {
             rows.push(f64::from(i), &[]);
         }
+        assert_eq!(rows.row(2), [0.0; 0]);
+        assert_eq!(rows.rows().count(), 3);
         let rec = rows.to_recording();
         assert_eq!(rec.time, [0.0, 1.0, 2.0]);
         assert!(rec.columns.is_empty());
     }
 
+    /// A trial after the first reuses the blocks: nothing is reserved again.
     #[test]
-    fn cleared_rows_keep_their_capacity() {
-        let mut rows = RecordedRows::with_capacity(names(), 10);
-        let before = rows.values.as_ptr();
-        rows.push(0.0, &[1.0, 2.0]);
+    fn cleared_rows_keep_their_blocks() {
+        let width = 40;
+        let per_block = BLOCK_VALUES / width;
+        let mut rows = RecordedRows::with_capacity(vec![String::new(); width], 2 * per_block);
+        let fill = |rows: &mut RecordedRows| {
+            for i in 0..2 * per_block {
+                rows.push(i as f64, &vec![i as f64; width]);
+            }
+        };
+        let at = |rows: &RecordedRows| rows.blocks.iter().map(|b| b.as_ptr()).collect::<Vec<_>>();
+        let before = at(&rows);
+        fill(&mut rows);
         rows.clear();
         assert!(rows.is_empty());
-        for i in 0..10 {
-            rows.push(f64::from(i), &[1.0, 2.0]);
-        }
-        assert_eq!(before, rows.values.as_ptr());
-        assert!(rows.to_recording().columns.iter().all(|c| c.len() == 10));
+        fill(&mut rows);
+        assert_eq!(at(&rows), before);
+        assert_eq!(rows.row(per_block), [per_block as f64; 40]);
+        assert!(
+            rows.to_recording()
+                .columns
+                .iter()
+                .all(|c| c.len() == 2 * per_block)
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "row 1 of 1")]
+    fn rows_past_the_end_are_refused() {
+        let mut rows = RecordedRows::with_capacity(names(), 1);
+        rows.push(0.0, &[1.0, 2.0]);
+        rows.row(1);
     }
 
     #[test]
