@@ -193,12 +193,8 @@ fn linked_trials_do_not_allocate_and_match_the_plain_ones() {
         assert_eq!(rec_linked.len(), rec_plain.len());
         assert!(!rec_plain.is_empty());
         assert_eq!(bits(rec_linked.time()), bits(rec_plain.time()));
-        for n in 0..rec_plain.len() {
-            assert_eq!(
-                bits(rec_linked.row(n)),
-                bits(rec_plain.row(n)),
-                "trial {trial}"
-            );
+        for (n, (a, b)) in rec_linked.rows().zip(rec_plain.rows()).enumerate() {
+            assert_eq!(bits(a), bits(b), "trial {trial}, row {n}");
         }
     }
 }

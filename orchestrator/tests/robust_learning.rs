@@ -75,9 +75,7 @@ fn run(text: &str, trials: usize) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
                 .iter()
                 .flatten()
                 .fold(0.0f64, |m, e| m.max(e.abs()));
-            let written: Vec<f64> = (0..recording.len())
-                .flat_map(|n| recording.row(n).iter().copied())
-                .collect();
+            let written: Vec<f64> = recording.rows().flatten().copied().collect();
             (max, written, master.memory()[0].to_vec())
         })
         .collect()

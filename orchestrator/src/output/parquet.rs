@@ -41,17 +41,8 @@ impl Exporter for ParquetExporter {
     fn write_rows(&self, rows: &RecordedRows, w: &mut dyn Write) -> io::Result<()> {
         let width = rows.names().len();
         let columns = (0..width).step_by(GROUP).flat_map(|first| {
-            let group = first..(first + GROUP).min(width);
-            let mut out: Vec<Vec<f64>> = group
-                .clone()
-                .map(|_| Vec::with_capacity(rows.len()))
-                .collect();
-            for row in rows.rows() {
-                for (column, &v) in out.iter_mut().zip(&row[group.clone()]) {
-                    column.push(v);
-                }
-            }
-            out.into_iter().map(Cow::Owned)
+            let group = rows.columns(first..(first + GROUP).min(width));
+            group.into_iter().map(Cow::Owned)
         });
         write_all(to_parquet(rows.names(), rows.time(), columns), w)
     }

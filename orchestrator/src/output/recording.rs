@@ -1,6 +1,8 @@
 //! In-memory signals of one trial: column-major for plots, norms and the exporters, which
 //! read whole signals, and row-major as the master loop writes them, one row per 1 ms step.
 
+use std::ops::Range;
+
 /// One trial's recorded signals: a time column plus named columns of equal length.
 ///
 /// The fields are public for cheap read access; code that builds a recording field by field
@@ -107,7 +109,7 @@ impl Recording {
 pub struct RecordedRows {
     names: Vec<String>,
     time: Vec<f64>,
-    /// The rows in order, [`RecordedRows::block_rows`] to a block; the blocks after the one
+    /// The rows in order, [`block_rows`] to a block; the blocks after the one
     /// being filled are empty (room kept from an earlier trial or reserved up front).
     blocks: Vec<Vec<f64>>,
     /// The block being filled.
@@ -126,22 +128,16 @@ impl RecordedRows {
     /// Empty rows of the given column names, with room for `rows` rows, so that a trial of
     /// known length never allocates inside the stepping loop.
     pub fn with_capacity(names: Vec<String>, rows: usize) -> Self {
-        let mut this = Self {
+        let per_block = block_rows(names.len());
+        let values = per_block * names.len();
+        Self {
             time: Vec::with_capacity(rows),
-            blocks: Vec::new(),
+            blocks: (0..rows.div_ceil(per_block).max(1))
+                .map(|_| Vec::with_capacity(values))
+                .collect(),
             filling: 0,
             names,
-        };
-        let per_block = this.block_rows();
-        let blocks = rows.div_ceil(per_block).max(1);
-        let values = per_block * this.names.len();
-        this.blocks = (0..blocks).map(|_| Vec::with_capacity(values)).collect();
-        this
-    }
-
-    /// Rows per block: as many as [`BLOCK_VALUES`] holds, at least one.
-    fn block_rows(&self) -> usize {
-        (BLOCK_VALUES / self.names.len().max(1)).max(1)
+        }
     }
 
     /// Column names, without the leading `time`.
@@ -174,7 +170,7 @@ impl RecordedRows {
         if width == 0 {
             return &[];
         }
-        let per_block = self.block_rows();
+        let per_block = block_rows(width);
         let at = i % per_block * width;
         &self.blocks[i / per_block][at..at + width]
     }
@@ -221,7 +217,7 @@ impl RecordedRows {
             self.filling += 1;
         }
         if self.filling == self.blocks.len() {
-            let values = self.block_rows() * self.names.len();
+            let values = block_rows(self.names.len()) * self.names.len();
             self.blocks.push(Vec::with_capacity(values));
         }
     }
@@ -237,24 +233,51 @@ impl RecordedRows {
 
     /// The same signals as a column-major [`Recording`].
     pub fn to_recording(&self) -> Recording {
-        let mut rec = Recording::with_capacity(self.names.clone(), self.len());
-        rec.time.extend_from_slice(&self.time);
+        Recording {
+            time: self.time.clone(),
+            names: self.names.clone(),
+            columns: self.columns(0..self.names.len()),
+        }
+    }
+
+    /// The columns `range` (by index into [`RecordedRows::names`]), each as long as the
+    /// rows.
+    ///
+    /// # Panics
+    /// If `range` reaches past the last column.
+    pub fn columns(&self, range: Range<usize>) -> Vec<Vec<f64>> {
+        assert!(
+            range.end <= self.names.len(),
+            "columns {range:?} of {}",
+            self.names.len()
+        );
         let width = self.names.len();
-        if width > 0 {
-            // A few rows at a time, so each row's cache lines are read once, not once per
-            // column.
-            for rows in self
-                .blocks
-                .iter()
-                .flat_map(|b| b.chunks(TRANSPOSE_ROWS * width))
-            {
-                for (c, column) in rec.columns.iter_mut().enumerate() {
-                    column.extend(rows.chunks_exact(width).map(|row| row[c]));
-                }
+        let mut columns: Vec<Vec<f64>> = range
+            .clone()
+            .map(|_| Vec::with_capacity(self.len()))
+            .collect();
+        if range.is_empty() {
+            return columns;
+        }
+        // A few rows at a time, so each row's cache lines are read once, not once per
+        // column.
+        for rows in self
+            .blocks
+            .iter()
+            .flat_map(|b| b.chunks(TRANSPOSE_ROWS * width))
+        {
+            for (c, column) in range.clone().zip(&mut columns) {
+                column.extend(rows.chunks_exact(width).map(|row| row[c]));
             }
         }
-        rec
+        columns
     }
+}
+
+/// Rows per block of [`RecordedRows`] of `width` columns: as many as [`BLOCK_VALUES`] holds,
+/// at least one.
+fn block_rows(width: usize) -> usize {
+    (BLOCK_VALUES / width.max(1)).max(1)
 }
 
 /// Equal names, times and rows, however the rows are laid out in blocks.
@@ -394,6 +417,12 @@ mod tests {
                 .iter()
                 .all(|c| c.len() == 2 * per_block)
         );
+    }
+
+    #[test]
+    #[should_panic(expected = "columns 1..3 of 2")]
+    fn columns_past_the_last_are_refused() {
+        RecordedRows::with_capacity(names(), 1).columns(1..3);
     }
 
     #[test]
