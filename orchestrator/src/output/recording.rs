@@ -112,7 +112,8 @@ pub struct RecordedRows {
     /// The rows in order, [`block_rows`] to a block; the blocks after the one
     /// being filled are empty (room kept from an earlier trial or reserved up front).
     blocks: Vec<Vec<f64>>,
-    /// The block being filled.
+    /// The block being filled: the row count over [`block_rows`], kept so that a push
+    /// needs no division.
     filling: usize,
 }
 
