@@ -118,11 +118,17 @@ impl Noise {
         StandardNormal.sample(&mut rng)
     }
 
-    /// Adds σ·n to each value; σ = 0 leaves the values untouched (bit for bit).
+    /// Adds σ·n to each value; σ = 0 leaves the values untouched (bit for bit). The test
+    /// is inlined into every step; the draws are not.
+    #[inline]
     fn add(&self, values: &mut [f64], sigma: f64, point: u64, first_channel: u32) {
-        if sigma == 0.0 {
-            return;
+        if sigma != 0.0 {
+            self.add_draws(values, sigma, point, first_channel);
         }
+    }
+
+    #[inline(never)]
+    fn add_draws(&self, values: &mut [f64], sigma: f64, point: u64, first_channel: u32) {
         for (i, x) in values.iter_mut().enumerate() {
             *x += sigma * self.standard_normal(point, first_channel + i as u32);
         }
