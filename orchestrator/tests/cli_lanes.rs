@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{foreign_fmu, orchestrator, tree};
+use common::{column, foreign_fmu, orchestrator, read_csv, tree};
 
 /// The foreign oscillator driven by its own position of the trial before
 /// (drive_{k+1}(t) = x_k(t), amplified by `gain`): the memory grows from trial to trial until
@@ -93,6 +93,40 @@ fn lanes_write_what_one_writes_and_fail_where_it_fails() {
                 progress.starts_with(&format!("completed = {completed}\n")),
                 "{progress}"
             );
+        }
+    }
+}
+
+/// The oscillator's one input is one memory channel, which the master sets straight from the
+/// channel. Over the step from t_n trial k+1's drive is trial k's x after that step, x(t_{n+1});
+/// the row at t_m records the value before the step from t_m, so the drive set for the step
+/// before: drive_{k+1}(t_m) = x_k(t_m) for m ≥ 1, bit for bit, on every lane count, and the
+/// start value 0 at t_0.
+#[test]
+fn a_memory_input_reads_the_trial_before() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), 10.0, 1e3);
+    for jobs in [1, 2] {
+        let out = tmp.path().join(format!("memory-{jobs}"));
+        let (ok, last) = run(&s, &out, jobs);
+        assert!(ok, "{last}");
+        let trial = |k: usize| read_csv(&out.join(format!("trials/trial_{k:03}.csv")));
+        for k in [0, 1] {
+            let (before, after) = (trial(k), trial(k + 1));
+            let x = column(&before, "osc.x");
+            let drive = column(&after, "osc.drive");
+            assert_eq!(x.len(), 2000);
+            assert_eq!(drive.len(), x.len());
+            assert!(x.iter().any(|&v| v != 0.0));
+            assert_eq!(drive[0], 0.0);
+            for m in 1..x.len() {
+                assert_eq!(
+                    drive[m].to_bits(),
+                    x[m].to_bits(),
+                    "--jobs {jobs}, trial {}, row {m}",
+                    k + 1
+                );
+            }
         }
     }
 }
