@@ -175,49 +175,6 @@ impl Wiring {
         }
     }
 
-    /// The input value references and their values at step `n`. Inputs that are one run of
-    /// bus slots or of a memory channel are set from where they are, with no copy between an
-    /// FMU's output and the next FMU's input; others are gathered into `in_buf`.
-    fn inputs<'a>(
-        &'a mut self,
-        bus: &'a [f64],
-        channels: &'a [Channel],
-        n: usize,
-    ) -> (&'a [u32], &'a [f64]) {
-        let memory = |c: usize, i: usize, len: usize| {
-            let ch: &'a Channel = &channels[c];
-            let from = n * ch.width + i;
-            &ch.read[from..from + len]
-        };
-        let values = match *self.in_runs.as_slice() {
-            [
-                InRun {
-                    src: Source::Bus(s),
-                    len,
-                    ..
-                },
-            ] => &bus[s..s + len],
-            [
-                InRun {
-                    src: Source::Memory(c, i),
-                    len,
-                    ..
-                },
-            ] => memory(c, i, len),
-            _ => {
-                for r in &self.in_runs {
-                    let src = match r.src {
-                        Source::Bus(s) => &bus[s..s + r.len],
-                        Source::Memory(c, i) => memory(c, i, r.len),
-                    };
-                    self.in_buf[r.at..r.at + r.len].copy_from_slice(src);
-                }
-                &self.in_buf
-            }
-        };
-        (&self.in_vrs, values)
-    }
-
     /// The bus slots of the first `read` outputs.
     fn read_range(&self, read: usize) -> Range<usize> {
         self.bus_range.start..self.bus_range.start + read
@@ -743,9 +700,47 @@ impl<'s> Master<'s> {
                 };
                 Run::copy(before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
-                    let (vrs, values) = w.inputs(&self.bus, &self.channels, n);
+                    // Inputs that are one run of bus slots or of a memory channel are set
+                    // from where they are: no copy between an FMU's output and the next
+                    // FMU's input.
+                    let values: &[f64] = match *w.in_runs.as_slice() {
+                        [
+                            InRun {
+                                src: Source::Bus(s),
+                                len,
+                                ..
+                            },
+                        ] => &self.bus[s..s + len],
+                        [
+                            InRun {
+                                src: Source::Memory(c, i),
+                                len,
+                                ..
+                            },
+                        ] => {
+                            let ch = &self.channels[c];
+                            let from = n * ch.width + i;
+                            &ch.read[from..from + len]
+                        }
+                        _ => {
+                            for r in &w.in_runs {
+                                let dst = &mut w.in_buf[r.at..r.at + r.len];
+                                match r.src {
+                                    Source::Bus(s) => {
+                                        dst.copy_from_slice(&self.bus[s..s + r.len]);
+                                    }
+                                    Source::Memory(c, i) => {
+                                        let ch = &self.channels[c];
+                                        let from = n * ch.width + i;
+                                        dst.copy_from_slice(&ch.read[from..from + r.len]);
+                                    }
+                                }
+                            }
+                            &w.in_buf
+                        }
+                    };
                     let inst = &mut self.instances[k];
-                    inst.set_real(vrs, values)
+                    inst.set_real(&w.in_vrs, values)
                         .map_err(|source| MasterError::Call {
                             trial,
                             time: t,
