@@ -700,41 +700,22 @@ impl<'s> Master<'s> {
                 };
                 Run::copy(before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
+                    let (bus, channels) = (&self.bus, &self.channels);
+                    let source = |src: Source, len: usize| match src {
+                        Source::Bus(s) => &bus[s..s + len],
+                        Source::Memory(c, i) => {
+                            let from = n * channels[c].width + i;
+                            &channels[c].read[from..from + len]
+                        }
+                    };
                     // Inputs that are one run of bus slots or of a memory channel are set
                     // from where they are: no copy between an FMU's output and the next
                     // FMU's input.
-                    let values: &[f64] = match *w.in_runs.as_slice() {
-                        [
-                            InRun {
-                                src: Source::Bus(s),
-                                len,
-                                ..
-                            },
-                        ] => &self.bus[s..s + len],
-                        [
-                            InRun {
-                                src: Source::Memory(c, i),
-                                len,
-                                ..
-                            },
-                        ] => {
-                            let ch = &self.channels[c];
-                            let from = n * ch.width + i;
-                            &ch.read[from..from + len]
-                        }
+                    let values = match *w.in_runs.as_slice() {
+                        [r] => source(r.src, r.len),
                         _ => {
                             for r in &w.in_runs {
-                                let dst = &mut w.in_buf[r.at..r.at + r.len];
-                                match r.src {
-                                    Source::Bus(s) => {
-                                        dst.copy_from_slice(&self.bus[s..s + r.len]);
-                                    }
-                                    Source::Memory(c, i) => {
-                                        let ch = &self.channels[c];
-                                        let from = n * ch.width + i;
-                                        dst.copy_from_slice(&ch.read[from..from + r.len]);
-                                    }
-                                }
+                                w.in_buf[r.at..r.at + r.len].copy_from_slice(source(r.src, r.len));
                             }
                             &w.in_buf
                         }
