@@ -233,38 +233,33 @@ impl HlcsController {
     }
 
     /// Evaluates the law at `t`; with `commit`, integrates this sample over `h`.
+    ///
+    /// Only a step whose terms are in the table runs here; every other path (the table to
+    /// build, terms computed on the spot, an error to word) is a call out of line, so the
+    /// step's own code stays in a few cache lines: between two plant steps the dynamics'
+    /// code and the FMUs' glue compete for the instruction cache (BENCHMARKS.md, round 33).
     fn sample(&mut self, t: f64, h: f64, commit: bool) -> ModelResult<()> {
         let settings = self.settings();
         let input = self.input();
         let Self { values, sim, .. } = self;
-        let sim = sim
-            .as_mut()
-            .ok_or_else(|| ModelError::error("not initialized"))?;
+        let Some(sim) = sim.as_mut() else {
+            return Err(not_initialized());
+        };
         // Gains are tunable between steps.
         sim.law.settings = settings;
-        if let Some(traj) = &sim.trajectory {
-            if h > 0.0 && sim.table.as_ref().is_none_or(|tb| tb.step_size() != h) {
-                sim.table = Some(shared_table(&sim.law.model, traj, sim.start_time, h));
-            }
-        }
-        let tabulated = match (&sim.trajectory, &sim.table) {
-            (Some(_), Some(tb)) => tb.get(t - sim.start_time),
-            _ => None,
-        };
-        let evaluated = match tabulated {
-            Some(terms) => sim.law.evaluate_terms(terms, &input, h),
+        sim.table_for(h);
+        let computed;
+        let terms = match sim.tabulated(t) {
+            Some(terms) => terms,
             None => {
-                let reference = Self::reference(values, sim, t);
-                let terms = ReferenceTerms::new(&sim.law.model, &reference, settings.feedforward);
-                sim.law.evaluate_terms(&terms, &input, h)
+                computed = sim.terms_at(values, t);
+                &computed
             }
         };
-        let (out, integral) = evaluated.map_err(|e| {
-            ModelError::error(format!(
-                "control law failed at t = {t} s: {e} (reference pose {:?})",
-                Self::reference(values, sim, t).pose.to_xyz_euler()
-            ))
-        })?;
+        let (out, integral) = match sim.law.evaluate_terms(terms, &input, h) {
+            Ok(evaluated) => evaluated,
+            Err(e) => return Err(law_failed(values, sim, t, &e)),
+        };
         // Never hand non-finite commands on with fmi2OK: the plant would then blame its own
         // input. The first non-finite output is named with the time. One branch-free scan
         // per step; the culprit is looked up only on failure.
@@ -291,6 +286,63 @@ impl HlcsController {
         values.set_real6(vr::ERROR_1, &out.error.into());
         Ok(())
     }
+}
+
+impl Sim {
+    /// Makes sure a tabulated trajectory's table is the one for step `h` (fetched at the
+    /// first doStep, and again for another step size).
+    #[inline]
+    fn table_for(&mut self, h: f64) {
+        if self.trajectory.is_some()
+            && h > 0.0
+            && self.table.as_ref().is_none_or(|tb| tb.step_size() != h)
+        {
+            self.fetch_table(h);
+        }
+    }
+
+    /// The table's terms at `t`, when `t` is on its grid.
+    #[inline]
+    fn tabulated(&self, t: f64) -> Option<&ReferenceTerms> {
+        match (&self.trajectory, &self.table) {
+            (Some(_), Some(tb)) => tb.get(t - self.start_time),
+            _ => None,
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn fetch_table(&mut self, h: f64) {
+        if let Some(traj) = &self.trajectory {
+            self.table = Some(shared_table(&self.law.model, traj, self.start_time, h));
+        }
+    }
+
+    /// The terms at `t` computed on the spot: for the external reference inputs, a time off
+    /// the table's grid, and the preview at initialization.
+    #[cold]
+    #[inline(never)]
+    fn terms_at(&self, values: &Values, t: f64) -> ReferenceTerms {
+        let reference = HlcsController::reference(values, self, t);
+        ReferenceTerms::new(&self.law.model, &reference, self.law.settings.feedforward)
+    }
+}
+
+#[cold]
+fn not_initialized() -> ModelError {
+    ModelError::error("not initialized")
+}
+
+/// The error of a control law that could not be evaluated at `t`, with the reference pose.
+#[cold]
+#[inline(never)]
+fn law_failed(values: &Values, sim: &Sim, t: f64, e: &dyn std::fmt::Display) -> ModelError {
+    ModelError::error(format!(
+        "control law failed at t = {t} s: {e} (reference pose {:?})",
+        HlcsController::reference(values, sim, t)
+            .pose
+            .to_xyz_euler()
+    ))
 }
 
 /// The error for the first non-finite value of `outputs`, else of `integral`, at `t`.

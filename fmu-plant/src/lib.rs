@@ -306,6 +306,20 @@ impl CkcmPlant {
     }
 }
 
+/// The Discard of a step from `t` by `h` under `force` that is refused for `cause`. Out of
+/// line and cold: formatted in place, the message's code sat between the step's own
+/// (BENCHMARKS.md, round 33).
+#[cold]
+#[inline(never)]
+fn refused(t: f64, h: f64, force: &Vector6<f64>, cause: std::fmt::Arguments<'_>) -> ModelError {
+    ModelError::discard(format!(
+        "the step from t = {} s by {} s under force = {:?} N is refused: {cause}",
+        Shown(t),
+        Shown(h),
+        force.as_slice()
+    ))
+}
+
 impl Model for CkcmPlant {
     fmu_core::values_model!(md, values, derived = derived_reals);
 
@@ -351,20 +365,17 @@ impl Model for CkcmPlant {
         let legs = sim.mechanism.inverse_kinematics(&next.pose);
         // The workspace is checked where the step ends; an integration failure happens
         // somewhere inside it, so it gets no time of its own beyond the step's.
-        let checked = match advanced {
-            Ok(()) => sim
-                .check_legs(&next, &legs)
-                .map_err(|e| format!("at t = {} s {e}", Shown(end))),
-            Err(e) => Err(e.to_string()),
-        };
-        checked.map_err(|e| {
-            ModelError::discard(format!(
-                "the step from t = {} s by {} s under force = {:?} N is refused: {e}",
-                Shown(t),
-                Shown(h),
-                force.as_slice()
-            ))
-        })?;
+        if let Err(e) = advanced {
+            return Err(refused(t, h, &force, format_args!("{e}")));
+        }
+        if let Err(e) = sim.check_legs(&next, &legs) {
+            return Err(refused(
+                t,
+                h,
+                &force,
+                format_args!("at t = {} s {e}", Shown(end)),
+            ));
+        }
         sim.state = next;
         sim.integrator = integrator;
         sim.point += 1;

@@ -721,60 +721,25 @@ impl<'s> Master<'s> {
                         }
                     };
                     let inst = &mut self.instances[k];
-                    inst.set_real(&w.in_vrs, values)
-                        .map_err(|source| MasterError::Call {
-                            trial,
-                            time: t,
-                            fmu: sc.fmus[k].name.clone(),
-                            what: "fmi2SetReal",
-                            source: Box::new(source),
-                        })?;
+                    if let Err(source) = inst.set_real(&w.in_vrs, values) {
+                        return Err(call_failed(sc, k, trial, t, "fmi2SetReal", source));
+                    }
                 }
                 let inst = &mut self.instances[k];
                 if let Err(source) = inst.do_step(t, h, true) {
-                    let fmu = sc.fmus[k].name.clone();
-                    let source = Box::new(source);
-                    // fmi2Discard: the FMU stopped early; say where, as far as it tells.
-                    return Err(
-                        if matches!(
-                            *source,
-                            ImportError::Call {
-                                status: fmi2_import::Status::Discard,
-                                ..
-                            }
-                        ) {
-                            MasterError::Discard {
-                                trial,
-                                time: t,
-                                fmu,
-                                last_successful_time: inst.last_successful_time().ok(),
-                                terminated: inst.is_terminated().unwrap_or(false),
-                                source,
-                            }
-                        } else {
-                            MasterError::Call {
-                                trial,
-                                time: t,
-                                fmu,
-                                what: "fmi2DoStep",
-                                source,
-                            }
-                        },
-                    );
+                    return Err(step_failed(sc, k, inst, trial, t, source));
                 }
                 let read = if recorded {
                     w.out_vrs.len()
                 } else {
                     w.out_needed
                 };
-                inst.get_real(&w.out_vrs[..read], &mut self.bus[w.read_range(read)])
-                    .map_err(|source| MasterError::Call {
-                        trial,
-                        time: sc.time(n + 1),
-                        fmu: sc.fmus[k].name.clone(),
-                        what: "fmi2GetReal",
-                        source: Box::new(source),
-                    })?;
+                if let Err(source) =
+                    inst.get_real(&w.out_vrs[..read], &mut self.bus[w.read_range(read)])
+                {
+                    let time = sc.time(n + 1);
+                    return Err(call_failed(sc, k, trial, time, "fmi2GetReal", source));
+                }
                 w.check_finite(&self.bus, read, trial, sc.time(n + 1), &sc.fmus[k].name)?;
                 let after = if recorded {
                     &w.record_after
@@ -825,6 +790,60 @@ impl<'s> Master<'s> {
             on_step(n);
         }
         Ok(())
+    }
+}
+
+// The stepping loop's errors, built out of line and cold so that the loop's own code stays
+// in few cache lines (BENCHMARKS.md, round 33).
+
+/// FMU `k`'s call `what` at `time` failed.
+#[cold]
+#[inline(never)]
+fn call_failed(
+    sc: &Scenario,
+    k: usize,
+    trial: usize,
+    time: f64,
+    what: &'static str,
+    source: ImportError,
+) -> MasterError {
+    MasterError::Call {
+        trial,
+        time,
+        fmu: sc.fmus[k].name.clone(),
+        what,
+        source: Box::new(source),
+    }
+}
+
+/// FMU `k`'s doStep from `time` failed; for fmi2Discard (the FMU stopped early) the error
+/// says where, as far as the FMU tells.
+#[cold]
+#[inline(never)]
+fn step_failed(
+    sc: &Scenario,
+    k: usize,
+    inst: &mut Instance,
+    trial: usize,
+    time: f64,
+    source: ImportError,
+) -> MasterError {
+    if !matches!(
+        source,
+        ImportError::Call {
+            status: fmi2_import::Status::Discard,
+            ..
+        }
+    ) {
+        return call_failed(sc, k, trial, time, "fmi2DoStep", source);
+    }
+    MasterError::Discard {
+        trial,
+        time,
+        fmu: sc.fmus[k].name.clone(),
+        last_successful_time: inst.last_successful_time().ok(),
+        terminated: inst.is_terminated().unwrap_or(false),
+        source: Box::new(source),
     }
 }
 

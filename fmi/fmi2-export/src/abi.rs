@@ -63,43 +63,72 @@ unsafe fn guard<M: Model>(
     let Some(inst) = (unsafe { Instance::<M>::from_component(c) }) else {
         return Status::Error.into();
     };
-    let state = inst.glue.state;
-    if !function.allowed_in(state) {
-        let hint = function.illegal_call_hint();
-        let cause = match inst.glue.failed_in {
-            Some(f) if state == FmiState::Terminated => format!(
-                " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
-                f.name()
-            ),
-            _ => String::new(),
-        };
-        inst.log(
-            Status::Error,
-            function,
-            &format!("illegal call sequence in state {state}{cause}{hint}"),
-        );
-        inst.escalate(Status::Error, function);
-        return Status::Error.into();
+    if !function.allowed_in(inst.glue.state) {
+        return refuse_call(inst, function);
     }
     let outcome = panic::catch_unwind(AssertUnwindSafe(|| body(&mut *inst)));
     match outcome {
         Ok(Ok(status)) => status.into(),
-        Ok(Err(failure)) => {
-            inst.log(failure.status, function, &failure.message);
-            inst.escalate(failure.status, function);
-            failure.status.into()
-        }
-        Err(payload) => {
-            // The model may be half-updated: nothing but fmi2FreeInstance may touch it.
-            inst.escalate(Status::Fatal, function);
-            inst.log(
-                Status::Fatal,
-                function,
-                &format!("panic in the model: {}", panic_message(&*payload)),
-            );
-            Status::Fatal.into()
-        }
+        Ok(Err(failure)) => report_failure(inst, function, failure),
+        Err(payload) => report_panic(inst, function, payload),
     }
+}
+
+// The guard's three ways out other than success, each out of line and cold: inlined into
+// every FMI function, their formatting and logging split the per-step path over more cache
+// lines than it runs (BENCHMARKS.md, round 33).
+
+/// A call that the instance's state does not allow.
+#[cold]
+#[inline(never)]
+fn refuse_call<M: Model>(inst: &mut Instance<M>, function: Function) -> Fmi2Status {
+    let state = inst.glue.state;
+    let hint = function.illegal_call_hint();
+    let cause = match inst.glue.failed_in {
+        Some(f) if state == FmiState::Terminated => format!(
+            " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
+            f.name()
+        ),
+        _ => String::new(),
+    };
+    inst.log(
+        Status::Error,
+        function,
+        &format!("illegal call sequence in state {state}{cause}{hint}"),
+    );
+    inst.escalate(Status::Error, function);
+    Status::Error.into()
+}
+
+/// A call whose body failed (a warning, discard, error or fatal) with `failure`'s message.
+#[cold]
+#[inline(never)]
+fn report_failure<M: Model>(
+    inst: &mut Instance<M>,
+    function: Function,
+    failure: Failure,
+) -> Fmi2Status {
+    inst.log(failure.status, function, &failure.message);
+    inst.escalate(failure.status, function);
+    failure.status.into()
+}
+
+/// A call whose body panicked.
+#[cold]
+#[inline(never)]
+fn report_panic<M: Model>(
+    inst: &mut Instance<M>,
+    function: Function,
+    payload: Box<dyn std::any::Any + Send>,
+) -> Fmi2Status {
+    // The model may be half-updated: nothing but fmi2FreeInstance may touch it.
+    inst.escalate(Status::Fatal, function);
+    inst.log(
+        Status::Fatal,
+        function,
+        &format!("panic in the model: {}", panic_message(&*payload)),
+    );
+    Status::Fatal.into()
 }
 
 /// `ptr[..n]` as a slice, refusing NULL (unless `n == 0`), misalignment and sizes that

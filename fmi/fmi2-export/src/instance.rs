@@ -667,14 +667,14 @@ impl<M: Model> Instance<M> {
     /// fmi2DoStep from `cp` by `h`.
     pub(crate) fn do_step(&mut self, cp: f64, h: f64) -> Outcome {
         if !(h.is_finite() && h > 0.0) {
-            return Err(Failure::error(format!(
+            return Err(step_refused(format_args!(
                 "communicationStepSize {} must be finite and > 0",
                 Shown(h)
             )));
         }
         let t = self.glue.time;
         if !cp.is_finite() || (cp - t).abs() > time_tolerance(t) {
-            return Err(Failure::error(format!(
+            return Err(step_refused(format_args!(
                 "currentCommunicationPoint {} does not match the FMU time {}",
                 Shown(cp),
                 Shown(t)
@@ -683,7 +683,7 @@ impl<M: Model> Instance<M> {
         if !M::CAN_HANDLE_VARIABLE_STEP {
             if let Some(h0) = self.glue.first_step {
                 if (h - h0).abs() > 1e-9 * h0.abs() {
-                    return Err(Failure::error(format!(
+                    return Err(step_refused(format_args!(
                         "communicationStepSize {} differs from the first step size {}; this FMU \
                          needs a fixed step (canHandleVariableCommunicationStepSize=false)",
                         Shown(h),
@@ -695,7 +695,7 @@ impl<M: Model> Instance<M> {
         let end = cp + h;
         if let Some(stop) = self.glue.stop_time {
             if end > stop + time_tolerance(stop) {
-                return Err(Failure::error(format!(
+                return Err(step_refused(format_args!(
                     "a step of {} from {} ends at {}, beyond the stop time {}",
                     Shown(h),
                     Shown(cp),
@@ -704,29 +704,44 @@ impl<M: Model> Instance<M> {
                 )));
             }
         }
-        match self.model.do_step(cp, h) {
-            Ok(()) => {}
-            Err(e) if e.severity == Severity::Discard => {
-                self.glue.state = FmiState::StepFailed;
-                self.glue.terminate_requested = true;
-                self.glue.last_step_status = Status::Discard;
-                return Err(Failure {
-                    status: Status::Discard,
-                    message: format!(
-                        "step from {} by {} discarded: {}",
-                        Shown(cp),
-                        Shown(h),
-                        e.message
-                    ),
-                });
-            }
-            Err(e) => return Err(e.into()),
+        if let Err(e) = self.model.do_step(cp, h) {
+            return Err(self.step_failed(cp, h, e));
         }
         self.glue.time = end;
         self.glue.first_step.get_or_insert(h);
         self.glue.last_step_status = Status::Ok;
         Ok(Status::Ok)
     }
+
+    /// The outcome of a model step that failed: a Discard leaves the time where it was and
+    /// moves to StepFailed. Out of line, as [`step_refused`].
+    #[cold]
+    #[inline(never)]
+    fn step_failed(&mut self, cp: f64, h: f64, e: ModelError) -> Failure {
+        if e.severity != Severity::Discard {
+            return e.into();
+        }
+        self.glue.state = FmiState::StepFailed;
+        self.glue.terminate_requested = true;
+        self.glue.last_step_status = Status::Discard;
+        Failure {
+            status: Status::Discard,
+            message: format!(
+                "step from {} by {} discarded: {}",
+                Shown(cp),
+                Shown(h),
+                e.message
+            ),
+        }
+    }
+}
+
+/// The error of a doStep refused by its arguments. Out of line and cold: formatted in
+/// place, the messages' code sat between the checks of every step (BENCHMARKS.md, round 33).
+#[cold]
+#[inline(never)]
+fn step_refused(message: std::fmt::Arguments<'_>) -> Failure {
+    Failure::error(message.to_string())
 }
 
 #[cfg(test)]

@@ -89,11 +89,7 @@ impl Values {
                 values.get(r.at..r.at + r.len),
             ) {
                 (Some(slots), Some(src)) => copy_run(slots, src),
-                _ => {
-                    for (&vr, &value) in vrs.iter().zip(values).skip(r.at).take(r.len) {
-                        self.set_real(vr, value);
-                    }
-                }
+                _ => self.set_reals_one_by_one(vrs, values, r),
             }
         }
         Ok(())
@@ -110,14 +106,51 @@ impl Values {
                 self.reals.get(start..start + r.len),
             ) {
                 (Some(dst), Some(src)) => copy_run(dst, src),
-                (Some(dst), None) => {
-                    for (o, &vr) in dst.iter_mut().zip(&vrs[r.at..]) {
-                        *o = self.real(vr);
-                    }
-                }
+                (Some(dst), None) => self.reals_one_by_one(&vrs[r.at..], dst),
                 (None, _) => {}
             }
         }
+    }
+
+    // The fallbacks below run only for value references past the storage, which the
+    // FMUs' declared variables never are. Out of line and cold, they stay out of the
+    // cache lines of the step's own code (BENCHMARKS.md, round 33).
+
+    #[cold]
+    #[inline(never)]
+    fn set_reals_one_by_one(&mut self, vrs: &[u32], values: &[f64], r: &VrRun) {
+        for (&vr, &value) in vrs.iter().zip(values).skip(r.at).take(r.len) {
+            self.set_real(vr, value);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn reals_one_by_one(&self, vrs: &[u32], out: &mut [f64]) {
+        for (o, &vr) in out.iter_mut().zip(vrs) {
+            *o = self.real(vr);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn set_real_growing(&mut self, vr: u32, value: f64) {
+        self.ensure(vr);
+        self.reals[vr as usize] = value;
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn set_reals_growing(&mut self, first: u32, values: &[f64]) {
+        for (vr, &x) in (first..).zip(values) {
+            self.set_real(vr, x);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn real6_one_by_one(&self, first: u32) -> [f64; 6] {
+        std::array::from_fn(|i| self.real(first + i as u32))
     }
 
     /// Makes room for `vr` (outputs have no start value and may lie past the last one).
@@ -141,10 +174,7 @@ impl Values {
     pub fn set_real(&mut self, vr: u32, value: f64) {
         match self.reals.get_mut(vr as usize) {
             Some(slot) => *slot = value,
-            None => {
-                self.ensure(vr);
-                self.reals[vr as usize] = value;
-            }
+            None => self.set_real_growing(vr, value),
         }
     }
 
@@ -155,7 +185,7 @@ impl Values {
         // One bounds check instead of six, as in `set_reals_at`.
         match self.reals.get(start..start + 6) {
             Some(slots) => std::array::from_fn(|i| slots[i]),
-            None => std::array::from_fn(|i| self.real(first + i as u32)),
+            None => self.real6_one_by_one(first),
         }
     }
 
@@ -175,9 +205,7 @@ impl Values {
         if let Some(slots) = self.reals.get_mut(start..start + N) {
             slots.copy_from_slice(values);
         } else {
-            for (i, &x) in values.iter().enumerate() {
-                self.set_real(first + i as u32, x);
-            }
+            self.set_reals_growing(first, values);
         }
     }
 
