@@ -17,9 +17,11 @@ pub struct LegErrorMetrics {
     pub overall: ErrorStats,
 }
 
-/// Statistics of the leg errors `errors[leg][sample]` sampled at `time`, with weight ρ (1/s)
-/// for the λ-norm. The λ-norm uses the infinity norm across legs at each sample.
-pub fn leg_error_metrics(time: &[f64], errors: &[&[f64]; 6], rho: f64) -> LegErrorMetrics {
+/// Statistics of the leg errors `errors[sample][leg]` sampled at `time`, with weight ρ (1/s)
+/// for the λ-norm. The λ-norm uses the infinity norm across legs at each sample. The errors
+/// come a sample at a time, as a master produces them: one store per step where six
+/// per-leg columns took six (BENCHMARKS.md, round 33).
+pub fn leg_error_metrics(time: &[f64], errors: &[[f64; 6]], rho: f64) -> LegErrorMetrics {
     let mut out = LegErrorMetrics::default();
     let n = time.len();
     if n == 0 {
@@ -28,10 +30,10 @@ pub fn leg_error_metrics(time: &[f64], errors: &[&[f64]; 6], rho: f64) -> LegErr
     // The weights e^(−ρt) once for all six legs: the exponential was 1 % of a whole trial.
     let weights: Vec<f64> = time.iter().map(|&t| (-rho * t).exp()).collect();
     let mut total_sq = 0.0;
-    for (leg, e) in errors.iter().enumerate() {
+    for leg in 0..6 {
         let mut sq = 0.0;
         let stats = &mut out.per_leg[leg];
-        for (&x, &w) in e.iter().zip(&weights) {
+        for (x, &w) in errors.iter().map(|row| row[leg]).zip(&weights) {
             let a = x.abs();
             stats.max = stats.max.max(a);
             stats.lambda = stats.lambda.max(w * a);
@@ -79,10 +81,10 @@ mod tests {
     #[test]
     fn metrics_of_known_signals() {
         let time = [0.0, 1.0, 2.0, 3.0];
-        let z = [0.0; 4];
         let e1 = [1.0, -2.0, 0.5, 0.0];
         let e2 = [0.0, 0.0, 0.0, 4.0];
-        let m = leg_error_metrics(&time, &[&e1, &e2, &z, &z, &z, &z], 1.0);
+        let rows: Vec<[f64; 6]> = (0..4).map(|k| [e1[k], e2[k], 0.0, 0.0, 0.0, 0.0]).collect();
+        let m = leg_error_metrics(&time, &rows, 1.0);
         assert_eq!(m.per_leg[0].max, 2.0);
         assert!((m.per_leg[0].rms - (5.25f64 / 4.0).sqrt()).abs() < 1e-15);
         assert!((m.per_leg[0].lambda - 1.0).abs() < 1e-15); // e^0·1 beats e^-1·2

@@ -226,8 +226,7 @@ impl TrialSummary {
         };
         // The λ-norm weights time since the start of the trial.
         let rel: Vec<f64> = s.time.iter().map(|t| t - scenario.start_time).collect();
-        let e: [&[f64]; 6] = std::array::from_fn(|i| s.error[i].as_slice());
-        let legs = Some(leg_error_metrics(&rel, &e, metrics.rho));
+        let legs = Some(leg_error_metrics(&rel, &s.error, metrics.rho));
         let path = metrics
             .trajectory
             .filter(|_| !s.position.is_empty())
@@ -1052,11 +1051,9 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
     fn signals(start_time: f64) -> TrialSignals {
         let n = 200;
         let time: Vec<f64> = (0..n).map(|k| start_time + k as f64 * 1e-3).collect();
-        let error = std::array::from_fn(|leg| {
-            (0..n)
-                .map(|k| 1e-4 * (1.0 + leg as f64) * (k as f64 / n as f64))
-                .collect()
-        });
+        let error = (0..n)
+            .map(|k| std::array::from_fn(|leg| 1e-4 * (1.0 + leg as f64) * (k as f64 / n as f64)))
+            .collect();
         let line = ckcm::Trajectory::line(0.5);
         let position = (0..n)
             .map(|k| {

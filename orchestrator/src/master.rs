@@ -86,8 +86,8 @@ pub const STATUS_CATEGORIES: [&str; 4] = [
 pub struct TrialSignals {
     /// t_n of each sample.
     pub time: Vec<f64>,
-    /// Leg errors, `[leg][sample]`.
-    pub error: [Vec<f64>; 6],
+    /// Leg errors, `[sample][leg]`.
+    pub error: Vec<[f64; 6]>,
     /// Platform position (x, y, z) at each sample, when a pose port is configured.
     pub position: Vec<[f64; 3]>,
 }
@@ -554,7 +554,7 @@ impl<'s> Master<'s> {
         let n = self.scenario.steps;
         TrialSignals {
             time: Vec::with_capacity(n),
-            error: std::array::from_fn(|_| Vec::with_capacity(n)),
+            error: Vec::with_capacity(n),
             position: Vec::with_capacity(if self.has_pose { n } else { 0 }),
         }
     }
@@ -674,9 +674,7 @@ impl<'s> Master<'s> {
     ) -> Result<(), MasterError> {
         let sc = self.scenario;
         signals.time.clear();
-        for e in &mut signals.error {
-            e.clear();
-        }
+        signals.error.clear();
         signals.position.clear();
         let h = sc.step_size;
         let interval = sc.record.interval;
@@ -756,13 +754,13 @@ impl<'s> Master<'s> {
             let mut pose_col = ncols;
             if self.has_error {
                 let taps = &self.row[ncols..];
-                for (leg, e) in signals.error.iter_mut().enumerate() {
-                    e.push(if self.error_difference {
+                signals.error.push(std::array::from_fn(|leg| {
+                    if self.error_difference {
                         taps[leg] - taps[6 + leg]
                     } else {
                         taps[leg]
-                    });
-                }
+                    }
+                }));
                 pose_col += if self.error_difference { 12 } else { 6 };
             }
             if self.has_pose {

@@ -142,13 +142,11 @@ trajectory = {{ kind = "circle", duration = 0.4, home_height = 0.5 }}
             &signals_b.time,
             &format!("trial {trial}, time"),
         );
-        for leg in 0..6 {
-            same(
-                &signals.error[leg],
-                &signals_b.error[leg],
-                &format!("trial {trial}, error of leg {}", leg + 1),
-            );
-        }
+        same(
+            signals.error.as_flattened(),
+            signals_b.error.as_flattened(),
+            &format!("trial {trial}, leg errors"),
+        );
         same(
             signals.position.as_flattened(),
             signals_b.position.as_flattened(),
