@@ -14,7 +14,7 @@ use ckcm::{
     ControlInput, ControlSettings, Gains, Hlcs, LearningLaw, Mechanism, ParamError, Params, Pose,
     Reference, ReferenceTable, ReferenceTerms, Trajectory, TrajectoryKind,
 };
-use fmu_core::values::{ByteReader, ByteWriter, Values};
+use fmu_core::values::{ByteReader, ByteWriter, Values, all_finite};
 use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType};
 
 /// Generated from `modelDescription/HlcsController.xml` by the build script.
@@ -273,7 +273,7 @@ impl HlcsController {
             .iter()
             .map(|(_, v)| *v)
             .chain([&integral])
-            .fold(true, |ok, v| v.iter().fold(ok, |ok, x| ok & x.is_finite()));
+            .fold(true, |ok, v| ok & all_finite(v.as_slice()));
         if !finite {
             return Err(not_finite_output(t, &outputs, &integral, &input));
         }
