@@ -234,10 +234,10 @@ impl HlcsController {
 
     /// Evaluates the law at `t`; with `commit`, integrates this sample over `h`.
     ///
-    /// Only a step whose terms are in the table runs here; every other path (the table to
-    /// build, terms computed on the spot, an error to word) is a call out of line, so the
-    /// step's own code stays in a few cache lines: between two plant steps the dynamics'
-    /// code and the FMUs' glue compete for the instruction cache (BENCHMARKS.md, round 33).
+    /// The tabulated step runs here; every other path (the table to fetch, terms computed
+    /// on the spot, an error to word) is a call out of line, so the step's own code stays
+    /// in few cache lines: between two plant steps the dynamics' code and the FMUs' glue
+    /// compete for the instruction cache (BENCHMARKS.md, round 33).
     fn sample(&mut self, t: f64, h: f64, commit: bool) -> ModelResult<()> {
         let settings = self.settings();
         let input = self.input();
@@ -319,8 +319,8 @@ impl Sim {
     }
 
     /// The terms at `t` computed on the spot: for the external reference inputs, a time off
-    /// the table's grid, and the preview at initialization.
-    #[cold]
+    /// the table's grid, and the preview at initialization. Out of line but not cold: it is
+    /// every step's path under the external reference.
     #[inline(never)]
     fn terms_at(&self, values: &Values, t: f64) -> ReferenceTerms {
         let reference = HlcsController::reference(values, self, t);
