@@ -500,6 +500,31 @@ mod tests {
         }
     }
 
+    /// Each way of storing a Real reaches past the storage and makes room.
+    #[test]
+    fn values_past_the_storage_grow_it() {
+        const SPEC: VarSpec = VarSpec {
+            name: "x",
+            value_reference: 0,
+            var_type: VarType::Real,
+            causality: Causality::Input,
+            variability: Variability::Continuous,
+            min: None,
+            max: None,
+        };
+        let mut v = Values::from_start(&[(2, VarType::Real, -1.0)]);
+        v.set_real(10, 1.5);
+        v.set_reals_at(20, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let vrs = [30, 31, 40];
+        v.set_finite_reals(&[SPEC], &vrs, &batch(&vrs), &[7.0, 8.0, 9.0])
+            .unwrap();
+        assert_eq!(v.real(2), -1.0);
+        assert_eq!(v.real(10), 1.5);
+        assert_eq!(v.real6(20), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(v.real6(38), [0.0, 0.0, 9.0, 0.0, 0.0, 0.0]);
+        assert_eq!([v.real(30), v.real(31), v.real(40)], [7.0, 8.0, 9.0]);
+    }
+
     #[test]
     fn a_refused_batch_writes_nothing() {
         let mut v = Values::from_start(&[(5, VarType::Real, 1.0)]);
