@@ -44,10 +44,12 @@ struct Component {
 }
 
 impl Component {
+    #[inline]
     fn f(&self) -> &Functions {
         &self.loaded.functions
     }
 
+    #[inline]
     fn c(&self) -> Fmi2Component {
         self.raw.as_ptr()
     }
@@ -97,6 +99,7 @@ impl Component {
     }
 
     /// Runs one FMI call and checks its status.
+    #[inline]
     fn call(
         &self,
         function: &'static str,
@@ -288,6 +291,7 @@ impl Instance {
     }
 
     /// fmi2DoStep from `t` by `h`.
+    #[inline]
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status, ImportError> {
         let c = &*self.component;
         // SAFETY: live component, plain value arguments.
@@ -306,6 +310,7 @@ impl Instance {
     }
 
     /// fmi2SetReal. Does not allocate unless the FMU reports an error.
+    #[inline]
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status, ImportError> {
         const F: &str = "fmi2SetReal";
         let c = &*self.component;
@@ -317,6 +322,7 @@ impl Instance {
     }
 
     /// fmi2GetReal into `values`. Does not allocate unless the FMU reports an error.
+    #[inline]
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<Status, ImportError> {
         const F: &str = "fmi2GetReal";
         let c = &*self.component;
@@ -654,6 +660,7 @@ impl Instance {
 }
 
 /// Rejects slices of different lengths before anything reaches the FMU.
+#[inline]
 fn same_len(
     c: &Component,
     function: &'static str,
@@ -663,9 +670,15 @@ fn same_len(
     if vrs == values {
         Ok(())
     } else {
-        Err(c.invalid(
-            function,
-            format!("{vrs} value references but {values} values"),
-        ))
+        Err(not_same_len(c, function, vrs, values))
     }
+}
+
+#[cold]
+#[inline(never)]
+fn not_same_len(c: &Component, function: &'static str, vrs: usize, values: usize) -> ImportError {
+    c.invalid(
+        function,
+        format!("{vrs} value references but {values} values"),
+    )
 }

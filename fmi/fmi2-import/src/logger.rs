@@ -71,6 +71,7 @@ impl LogEnv {
     }
 
     /// The sequence number the next message will get.
+    #[inline]
     pub(crate) fn mark(&self) -> u64 {
         self.next_seq.load(Ordering::Acquire)
     }
