@@ -206,6 +206,7 @@ impl Wiring {
 /// (NaN or infinity) plus one reaches the sign bit, and any other does not. The compiler
 /// vectorises this; a search with a branch per value, out of line, cost 3.4 M instructions
 /// more per 15 s trial (BENCHMARKS.md, round 14).
+#[inline]
 fn all_finite(values: &[f64]) -> bool {
     const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
     const ONE: u64 = 1 << 52;
@@ -238,6 +239,7 @@ impl Run {
         }
     }
 
+    #[inline]
     fn copy(runs: &[Run], bus: &[f64], row: &mut [f64]) {
         for r in runs {
             row[r.column..r.column + r.len].copy_from_slice(&bus[r.slot..r.slot + r.len]);
@@ -612,12 +614,18 @@ impl<'s> Master<'s> {
     /// With `--fmu-logging`, prints what each FMU logged since the last call, prefixed by its
     /// instance name, as `simulate` does. Without it nothing is printed here: a failed call
     /// carries its FMU's messages in its error.
+    #[inline]
     fn forward_log(&self) {
         if self.logging {
-            for inst in &self.instances {
-                for record in inst.take_log() {
-                    crate::console!("{}: {record}", inst.name());
-                }
+            self.print_log();
+        }
+    }
+
+    #[inline(never)]
+    fn print_log(&self) {
+        for inst in &self.instances {
+            for record in inst.take_log() {
+                crate::console!("{}: {record}", inst.name());
             }
         }
     }
