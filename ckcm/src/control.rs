@@ -319,6 +319,7 @@ impl Hlcs {
     }
 
     /// [`Hlcs::step`] from the reference's terms.
+    #[inline]
     pub fn step_terms(
         &mut self,
         terms: &ReferenceTerms,

@@ -326,6 +326,7 @@ impl Default for Integrator {
 
 impl Integrator {
     /// Advances `state` by `h` with `tau` held constant.
+    #[inline]
     pub fn advance(
         &mut self,
         mech: &Mechanism,

@@ -32,6 +32,7 @@ impl Pose {
     }
 
     /// [x, y, z, alpha, beta, gamma].
+    #[inline]
     pub fn to_xyz_euler(&self) -> [f64; 6] {
         let (a, b, g) = euler_zyx_from_quaternion(&self.q_world);
         [self.p_world.x, self.p_world.y, self.p_world.z, a, b, g]

@@ -33,6 +33,7 @@ pub fn quaternion_from_euler_zyx(alpha: f64, beta: f64, gamma: f64) -> UnitQuate
 
 /// Z-Y-X Euler angles (alpha, beta, gamma) of a rotation matrix; beta in [−π/2, π/2].
 /// At the singularity |beta| = π/2 gamma is set to zero.
+#[inline]
 pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
     let beta = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
     if r[(2, 0)].abs() < 1.0 - 1e-12 {
@@ -46,6 +47,7 @@ pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
 }
 
 /// Z-Y-X Euler angles of a unit quaternion.
+#[inline]
 pub fn euler_zyx_from_quaternion(q: &UnitQuaternion<f64>) -> (f64, f64, f64) {
     let r: Rotation3<f64> = q.to_rotation_matrix();
     euler_zyx_from_rotation(r.matrix())
