@@ -325,7 +325,10 @@ impl Default for Integrator {
 }
 
 impl Integrator {
-    /// Advances `state` by `h` with `tau` held constant.
+    /// Advances `state` by `h` with `tau` held constant. `#[inline]`, as `Hlcs::step_terms`
+    /// and `Pose::to_xyz_euler`: small, and called every step from other crates (the plant
+    /// FMU, the benchmarks' floor), where a call would cross the crate boundary
+    /// (BENCHMARKS.md, round 34).
     #[inline]
     pub fn advance(
         &mut self,

@@ -205,7 +205,8 @@ impl Wiring {
 /// Whether every value is finite, without a branch per value: an exponent field of all ones
 /// (NaN or infinity) plus one reaches the sign bit, and any other does not. The compiler
 /// vectorises this; a search with a branch per value, out of line, cost 3.4 M instructions
-/// more per 15 s trial (BENCHMARKS.md, round 14).
+/// more per 15 s trial (BENCHMARKS.md, round 14). `#[inline]`, as `Run::copy`: the stepping
+/// loop is generic, so it is compiled in the caller's crate (BENCHMARKS.md, round 34).
 #[inline]
 fn all_finite(values: &[f64]) -> bool {
     const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
@@ -621,6 +622,7 @@ impl<'s> Master<'s> {
         }
     }
 
+    /// Out of line: only `--fmu-logging` runs it, and `forward_log` is in every step.
     #[inline(never)]
     fn print_log(&self) {
         for inst in &self.instances {

@@ -291,6 +291,10 @@ impl Instance {
     }
 
     /// fmi2DoStep from `t` by `h`.
+    ///
+    /// This and `set_real`/`get_real` are `#[inline]`: a master's stepping loop is often
+    /// generic and compiled in another crate, where each call here was a call across the
+    /// crate boundary, six per step (BENCHMARKS.md, round 34).
     #[inline]
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status, ImportError> {
         let c = &*self.component;
