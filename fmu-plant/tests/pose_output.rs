@@ -53,13 +53,15 @@ fn euler_angles_read_in_any_batch_are_those_of_the_current_state() {
             assert_eq!(plant.get_real(r).to_bits(), x.to_bits(), "pose vr {r}");
         }
         // Batches that cut the angles into several runs, out of order, mixed with other
-        // outputs, or cover only part of them.
-        let batches: [&[u32]; 6] = [
+        // outputs, cover only part of them, or ask for one again after a run of all three.
+        let batches: [&[u32]; 8] = [
             &[pose[5], pose[3]],
             &[pose[4]],
             &[pose[2], pose[3], length[0]],
             &[length[5], pose[5], pose[4], pose[3], pose[0]],
             &[pose[3], pose[3], pose[5]],
+            &[pose[3], pose[4], pose[5], pose[4]],
+            &[length[0], pose[2], pose[3], pose[4], pose[5], length[1]],
             &[
                 pose[0], pose[1], pose[2], pose[3], pose[4], pose[5], length[0],
             ],
