@@ -206,7 +206,9 @@ impl Wiring {
 /// (NaN or infinity) plus one reaches the sign bit, and any other does not. The compiler
 /// vectorises this; a search with a branch per value, out of line, cost 3.4 M instructions
 /// more per 15 s trial (BENCHMARKS.md, round 14). `#[inline]`, as `Run::copy`: the stepping
-/// loop is generic, so it is compiled in the caller's crate (BENCHMARKS.md, round 34).
+/// loop is generic, so it is compiled in the caller's crate (BENCHMARKS.md, round 34). The
+/// FMU side has the same scan as `fmu_core::values::all_finite`; the master links no FMU
+/// crate, so it is written here again.
 #[inline]
 fn all_finite(values: &[f64]) -> bool {
     const EXPONENT: u64 = 0x7ff0_0000_0000_0000;

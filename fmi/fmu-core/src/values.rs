@@ -432,6 +432,17 @@ mod tests {
         assert!(all_finite(&[]));
     }
 
+    /// The one variable the setters' checks are given: a Real input without bounds.
+    const SPEC: VarSpec = VarSpec {
+        name: "x",
+        value_reference: 0,
+        var_type: VarType::Real,
+        causality: Causality::Input,
+        variability: Variability::Continuous,
+        min: None,
+        max: None,
+    };
+
     fn batch(vrs: &[u32]) -> Vec<VrRun> {
         let mut runs = vec![VrRun {
             at: 9,
@@ -464,15 +475,6 @@ mod tests {
     /// past the stored values.
     #[test]
     fn run_copies_agree_with_scalar_access() {
-        const SPEC: VarSpec = VarSpec {
-            name: "x",
-            value_reference: 0,
-            var_type: VarType::Real,
-            causality: Causality::Input,
-            variability: Variability::Continuous,
-            min: None,
-            max: None,
-        };
         let batches: [&[u32]; 5] = [
             &[11, 12, 13, 14, 15, 16, 21, 22, 23, 24, 25, 26, 1],
             &[3, 2, 1, 0],
@@ -503,15 +505,6 @@ mod tests {
     /// Each way of storing a Real reaches past the storage and makes room.
     #[test]
     fn values_past_the_storage_grow_it() {
-        const SPEC: VarSpec = VarSpec {
-            name: "x",
-            value_reference: 0,
-            var_type: VarType::Real,
-            causality: Causality::Input,
-            variability: Variability::Continuous,
-            min: None,
-            max: None,
-        };
         let mut v = Values::from_start(&[(2, VarType::Real, -1.0)]);
         v.set_real(10, 1.5);
         v.set_reals_at(20, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
