@@ -281,36 +281,60 @@ fn line_trial(c: &mut Criterion) {
     let table = ReferenceTable::new(&nominal, &trajectory, 0.0, H);
     // The floor produces what the orchestrator trial records at every sample: leg errors,
     // forces, next memory, measured lengths and the pose (Euler angles), into storage
-    // allocated once, so the ratio measures the FMI layer and nothing else.
+    // allocated once, so the ratio measures the FMI layer and nothing else. It also keeps
+    // what `Master` keeps in every trial for the metrics, in the same `TrialSignals`: the
+    // time, reference − true length of each leg (true lengths: the floor has no sensor
+    // noise) and the position (BENCHMARKS.md, round 35).
     let mut floor_record: Vec<[f64; 30]> = Vec::with_capacity(steps);
-    let mut floor = |read: &[Vector6<f64>], write: &mut [Vector6<f64>]| {
-        let mut controller = Hlcs::new(nominal, ControlSettings::default());
-        let mut integrator = Integrator::default();
-        floor_record.clear();
-        run_trial_with_table(
-            &plant,
-            &mut integrator,
-            &mut controller,
-            &trajectory,
-            H,
-            Some(&table),
-            read,
-            write,
-            |_, state, input, out| {
-                let mut row = [0.0; 30];
-                row[0..6].copy_from_slice(out.error.as_slice());
-                row[6..12].copy_from_slice(out.force.as_slice());
-                row[12..18].copy_from_slice(out.memory_next.as_slice());
-                row[18..24].copy_from_slice(input.length.as_slice());
-                row[24..30].copy_from_slice(&state.pose.to_xyz_euler());
-                floor_record.push(row);
-            },
-        )
-        .expect("the line trial runs")
-    };
+    let mut floor_signals = master.new_signals();
+    let mut floor =
+        |read: &[Vector6<f64>], write: &mut [Vector6<f64>], floor_signals: &mut TrialSignals| {
+            let mut controller = Hlcs::new(nominal, ControlSettings::default());
+            let mut integrator = Integrator::default();
+            floor_record.clear();
+            floor_signals.time.clear();
+            floor_signals.error.clear();
+            floor_signals.position.clear();
+            run_trial_with_table(
+                &plant,
+                &mut integrator,
+                &mut controller,
+                &trajectory,
+                H,
+                Some(&table),
+                read,
+                write,
+                |n, state, input, out| {
+                    let error = out.length_ref - input.length;
+                    floor_signals.error.push(error.into());
+                    let p = state.pose.p_world;
+                    floor_signals.position.push([p.x, p.y, p.z]);
+                    floor_signals.time.push(n as f64 * H);
+                    let mut row = [0.0; 30];
+                    row[0..6].copy_from_slice(out.error.as_slice());
+                    row[6..12].copy_from_slice(out.force.as_slice());
+                    row[12..18].copy_from_slice(out.memory_next.as_slice());
+                    row[18..24].copy_from_slice(input.length.as_slice());
+                    row[24..30].copy_from_slice(&state.pose.to_xyz_euler());
+                    floor_record.push(row);
+                },
+            )
+            .expect("the line trial runs")
+        };
     let mut floor_memory = vec![Vector6::zeros(); steps];
     let mut floor_next = vec![Vector6::zeros(); steps];
-    floor(&vec![Vector6::zeros(); steps], &mut floor_memory);
+    floor(
+        &vec![Vector6::zeros(); steps],
+        &mut floor_memory,
+        &mut floor_signals,
+    );
+    // The same trial 0 as `Master`'s, sample by sample: the floor keeps the same signals.
+    assert!(
+        floor_signals.time == signals.time
+            && floor_signals.error == signals.error
+            && floor_signals.position == signals.position,
+        "the floor's trial 0 differs from Master's"
+    );
 
     let mut g = c.benchmark_group("line_trial_15s");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
@@ -331,7 +355,13 @@ fn line_trial(c: &mut Criterion) {
         b.iter_custom(|iters| (0..iters).map(|_| timed(false)).sum())
     });
     g.bench_function("floor", |b| {
-        b.iter(|| floor(black_box(&floor_memory), &mut floor_next))
+        b.iter(|| {
+            floor(
+                black_box(&floor_memory),
+                &mut floor_next,
+                &mut floor_signals,
+            )
+        })
     });
     g.finish();
 
@@ -379,7 +409,11 @@ fn line_trial(c: &mut Criterion) {
             let elapsed = match kinds[which] {
                 None => {
                     let start = Instant::now();
-                    floor(black_box(&floor_memory), &mut floor_next);
+                    floor(
+                        black_box(&floor_memory),
+                        &mut floor_next,
+                        &mut floor_signals,
+                    );
                     start.elapsed()
                 }
                 Some((recorded, false)) => timed(recorded),
