@@ -144,14 +144,13 @@ struct Wiring {
     /// Where each input's value comes from, as runs over `in_buf`.
     in_runs: Vec<InRun>,
     in_buf: Vec<f64>,
-    /// Bus slots copied into a recorded sample's row before the step (values at t_n),
-    /// straight into its place in the recording.
+    /// Bus slots copied into the row's columns (recorded, then the metrics') before the
+    /// step (values at t_n).
     record_before: Vec<Run>,
-    /// Bus slots copied into a recorded sample's row after the step (values held over the
-    /// step).
+    /// Bus slots copied into the row's columns after the step (values held over the step).
     record_after: Vec<Run>,
-    /// Bus slots copied into the metrics' taps (`Master::taps`) before and after the step,
-    /// in every trial.
+    /// The metrics' columns of `record_before` and `record_after` alone, for an unrecorded
+    /// trial.
     metric_before: Vec<Run>,
     metric_after: Vec<Run>,
 }
@@ -324,9 +323,9 @@ pub struct Master<'s> {
     wiring: Vec<Wiring>,
     bus: Vec<f64>,
     channels: Vec<Channel>,
-    /// One sample's metric taps: the six leg errors (or six references and six true
-    /// lengths), then x, y, z.
-    taps: Vec<f64>,
+    /// One sample: recorded columns, then the six leg errors (or six references and six
+    /// true lengths), then x, y, z.
+    row: Vec<f64>,
     column_names: Vec<String>,
     has_error: bool,
     /// Whether the leg errors are reference − length rather than an error output.
@@ -477,7 +476,7 @@ impl<'s> Master<'s> {
         let metrics = scenario.metrics.as_ref();
         taps.extend(metrics.into_iter().flat_map(|m| m.error.ports()));
         taps.extend(metrics.and_then(|m| m.pose.as_ref()));
-        let mut tapped = 0;
+        let mut columns = 0;
         for (t, p) in taps.iter().enumerate() {
             let is_record = t < scenario.record.ports.len();
             // The pose port may be longer than x, y, z; only those three are tapped.
@@ -487,20 +486,21 @@ impl<'s> Master<'s> {
                 POSITION
             };
             for (i, &vr) in p.value_references.iter().take(take).enumerate() {
+                if is_record {
+                    column_names.push(p.names[i].clone());
+                }
                 let s = slot(&wiring, p.fmu, vr);
                 let w = &mut wiring[p.fmu];
-                let (record, metric) = if p.sampled {
+                let (all, metric) = if p.sampled {
                     (&mut w.record_after, &mut w.metric_after)
                 } else {
                     (&mut w.record_before, &mut w.metric_before)
                 };
-                if is_record {
-                    Run::push(record, s, column_names.len());
-                    column_names.push(p.names[i].clone());
-                } else {
-                    Run::push(metric, s, tapped);
-                    tapped += 1;
+                Run::push(all, s, columns);
+                if !is_record {
+                    Run::push(metric, s, columns);
                 }
+                columns += 1;
             }
         }
         for w in &mut wiring {
@@ -512,7 +512,7 @@ impl<'s> Master<'s> {
             _fmus: fmus,
             bus: vec![0.0; next],
             channels,
-            taps: vec![0.0; tapped],
+            row: vec![0.0; columns],
             column_names,
             wiring,
             has_error: metrics.is_some(),
@@ -701,18 +701,14 @@ impl<'s> Master<'s> {
                 }
             }
             let t = sc.time(n);
-            // A recorded sample's row is gathered in its place in the recording; an
-            // unrecorded trial pays no division.
-            let mut row = match recording.as_deref_mut() {
-                Some(r) if n % interval == 0 => Some(r.next_row()),
-                _ => None,
-            };
             for k in 0..self.instances.len() {
                 let w = &mut self.wiring[k];
-                if let Some(row) = row.as_deref_mut() {
-                    Run::copy(&w.record_before, &self.bus, row);
-                }
-                Run::copy(&w.metric_before, &self.bus, &mut self.taps);
+                let before = if recorded {
+                    &w.record_before
+                } else {
+                    &w.metric_before
+                };
+                Run::copy(before, &self.bus, &mut self.row);
                 if !w.in_vrs.is_empty() {
                     let (bus, channels) = (&self.bus, &self.channels);
                     let source = |src: Source, len: usize| match src {
@@ -755,19 +751,21 @@ impl<'s> Master<'s> {
                     return Err(call_failed(sc, k, trial, time, "fmi2GetReal", source));
                 }
                 w.check_finite(&self.bus, read, trial, sc.time(n + 1), &sc.fmus[k].name)?;
-                if let Some(row) = row.as_deref_mut() {
-                    Run::copy(&w.record_after, &self.bus, row);
-                }
-                Run::copy(&w.metric_after, &self.bus, &mut self.taps);
+                let after = if recorded {
+                    &w.record_after
+                } else {
+                    &w.metric_after
+                };
+                Run::copy(after, &self.bus, &mut self.row);
                 for ch in self.channels.iter_mut().filter(|c| c.producer == k) {
                     let dst = &mut ch.write[n * ch.width..(n + 1) * ch.width];
                     Run::copy(&ch.from_runs, &self.bus, dst);
                 }
             }
-            let sampled = row.is_some();
-            let mut pose_col = 0;
+            let ncols = self.column_names.len();
+            let mut pose_col = ncols;
             if self.has_error {
-                let taps = &self.taps;
+                let taps = &self.row[ncols..];
                 signals.error.push(std::array::from_fn(|leg| {
                     if self.error_difference {
                         taps[leg] - taps[6 + leg]
@@ -778,13 +776,14 @@ impl<'s> Master<'s> {
                 pose_col += if self.error_difference { 12 } else { 6 };
             }
             if self.has_pose {
-                let p = &self.taps[pose_col..pose_col + 3];
+                let p = &self.row[pose_col..pose_col + 3];
                 signals.position.push([p[0], p[1], p[2]]);
             }
             signals.time.push(t);
-            if sampled {
-                if let Some(r) = recording.as_deref_mut() {
-                    r.commit_row(t);
+            // The recording first: an unrecorded trial pays no division.
+            if let Some(r) = recording.as_deref_mut() {
+                if n % interval == 0 {
+                    r.push(t, &self.row[..ncols]);
                 }
             }
             if L::ACTIVE && ((n + 1) % CHUNK_STEPS == 0 || n + 1 == sc.steps) {

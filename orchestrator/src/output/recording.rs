@@ -105,23 +105,16 @@ impl Recording {
 /// freed it raises its threshold and takes the next ones from its per-thread heaps, which
 /// fragment. With one 3.7 MB buffer per trial, `paper --jobs 4` peaked 5–10 MB higher
 /// (BENCHMARKS.md, round 31); the blocks are as large as a column of the columnar recording.
-///
-/// The blocks are allocated at their full length, so that the master can gather a row
-/// straight into its place ([`RecordedRows::next_row`], then [`RecordedRows::commit_row`])
-/// instead of into a row of its own that a push then copies (BENCHMARKS.md, round 35).
 #[derive(Debug, Clone, Default)]
 pub struct RecordedRows {
     names: Vec<String>,
     time: Vec<f64>,
-    /// The rows in order, [`block_rows`] to a block, each block [`block_rows`] rows long;
-    /// only the rows before (`filling`, `at`) are recorded, the rest is room kept from an
-    /// earlier trial or reserved up front.
+    /// The rows in order, [`block_rows`] to a block; the blocks after the one
+    /// being filled are empty (room kept from an earlier trial or reserved up front).
     blocks: Vec<Vec<f64>>,
-    /// The block of the next row: the row count over [`block_rows`], kept so that a row
+    /// The block being filled: the row count over [`block_rows`], kept so that a push
     /// needs no division.
     filling: usize,
-    /// Where the next row starts in block `filling`.
-    at: usize,
 }
 
 /// Most values in one block of [`RecordedRows`]: 120 KiB, under glibc's initial 128 KiB
@@ -141,10 +134,9 @@ impl RecordedRows {
         Self {
             time: Vec::with_capacity(rows),
             blocks: (0..rows.div_ceil(per_block).max(1))
-                .map(|_| vec![0.0; values])
+                .map(|_| Vec::with_capacity(values))
                 .collect(),
             filling: 0,
-            at: 0,
             names,
         }
     }
@@ -189,22 +181,10 @@ impl RecordedRows {
         let width = self.names.len();
         // Rows without values are not in the blocks: one empty row per time.
         let empty = if width == 0 { self.len() } else { 0 };
-        self.recorded_blocks()
+        self.blocks
+            .iter()
             .flat_map(move |b| b.chunks_exact(width.max(1)))
             .chain(std::iter::repeat_n(&[][..], empty))
-    }
-
-    /// The recorded part of each block, in order.
-    fn recorded_blocks(&self) -> impl Iterator<Item = &[f64]> {
-        let (filling, at) = (self.filling, self.at);
-        self.blocks.iter().enumerate().map(move |(b, values)| {
-            let end = match b.cmp(&filling) {
-                std::cmp::Ordering::Less => values.len(),
-                std::cmp::Ordering::Equal => at,
-                std::cmp::Ordering::Greater => 0,
-            };
-            &values[..end]
-        })
     }
 
     /// Appends one row. Allocates nothing when the capacity suffices.
@@ -220,49 +200,36 @@ impl RecordedRows {
             values.len(),
             self.names.len()
         );
-        self.next_row().copy_from_slice(values);
-        self.commit_row(t);
-    }
-
-    /// Where the next row goes, one value per name: what it holds when
-    /// [`RecordedRows::commit_row`] appends it. Until then it is free room, which the next
-    /// call returns again.
-    #[inline]
-    pub fn next_row(&mut self) -> &mut [f64] {
-        if self.filling == self.blocks.len() {
-            self.add_block();
+        let full = self
+            .blocks
+            .get(self.filling)
+            .is_none_or(|b| b.len() + values.len() > b.capacity());
+        if full {
+            self.next_block();
         }
-        let width = self.names.len();
-        &mut self.blocks[self.filling][self.at..self.at + width]
-    }
-
-    /// Appends the row [`RecordedRows::next_row`] gave, at time `t`.
-    #[inline]
-    pub fn commit_row(&mut self, t: f64) {
-        if self.filling == self.blocks.len() {
-            self.add_block();
-        }
-        let width = self.names.len();
+        self.blocks[self.filling].extend_from_slice(values);
         self.time.push(t);
-        self.at += width;
-        if width > 0 && self.at == self.blocks[self.filling].len() {
-            self.filling += 1;
-            self.at = 0;
-        }
     }
 
-    /// Reserves one more block, past the last one.
+    /// Moves on to the next block, reserving it if there is none.
     #[cold]
-    fn add_block(&mut self) {
-        let values = block_rows(self.names.len()) * self.names.len();
-        self.blocks.push(vec![0.0; values]);
+    fn next_block(&mut self) {
+        if !self.blocks.is_empty() {
+            self.filling += 1;
+        }
+        if self.filling == self.blocks.len() {
+            let values = block_rows(self.names.len()) * self.names.len();
+            self.blocks.push(Vec::with_capacity(values));
+        }
     }
 
     /// Drops every row and keeps the capacity.
     pub fn clear(&mut self) {
         self.time.clear();
+        for b in &mut self.blocks {
+            b.clear();
+        }
         self.filling = 0;
-        self.at = 0;
     }
 
     /// The same signals as a column-major [`Recording`].
@@ -296,7 +263,8 @@ impl RecordedRows {
         // A few rows at a time, so each row's cache lines are read once, not once per
         // column.
         for rows in self
-            .recorded_blocks()
+            .blocks
+            .iter()
             .flat_map(|b| b.chunks(TRANSPOSE_ROWS * width))
         {
             for (c, column) in range.clone().zip(&mut columns) {
@@ -441,13 +409,6 @@ mod tests {
         fill(&mut rows);
         rows.clear();
         assert!(rows.is_empty());
-        // The blocks keep the old values as room; none of them reads as a row.
-        assert_eq!(rows.rows().count(), 0);
-        assert!(rows.to_recording().columns.iter().all(Vec::is_empty));
-        rows.push(-1.0, &vec![-1.0; width]);
-        assert_eq!(rows.rows().collect::<Vec<_>>(), [&vec![-1.0; width][..]]);
-        assert_eq!(rows.to_recording().columns[0], [-1.0]);
-        rows.clear();
         fill(&mut rows);
         assert_eq!(at(&rows), before);
         assert_eq!(rows.row(per_block), [per_block as f64; 40]);
@@ -456,33 +417,6 @@ mod tests {
                 .columns
                 .iter()
                 .all(|c| c.len() == 2 * per_block)
-        );
-    }
-
-    /// A row gathered in its place is recorded once committed; until then the place is
-    /// room, and the next row is gathered there again.
-    #[test]
-    fn rows_gathered_in_place() {
-        let mut rows = RecordedRows {
-            names: names(),
-            ..Default::default()
-        };
-        rows.next_row().copy_from_slice(&[1.0, 2.0]);
-        assert!(rows.is_empty());
-        assert_eq!(rows.rows().count(), 0);
-        let row = rows.next_row();
-        row[1] = 4.0;
-        row[0] = 3.0;
-        rows.commit_row(0.5);
-        rows.next_row().copy_from_slice(&[5.0, 6.0]);
-        assert_eq!(rows.len(), 1);
-        assert_eq!(rows.time(), [0.5]);
-        assert_eq!(rows.row(0), [3.0, 4.0]);
-        assert_eq!(rows.rows().collect::<Vec<_>>(), [&[3.0, 4.0][..]]);
-        rows.commit_row(0.75);
-        assert_eq!(
-            rows.to_recording().columns,
-            [vec![3.0, 5.0], vec![4.0, 6.0]]
         );
     }
 
