@@ -292,9 +292,7 @@ fn line_trial(c: &mut Criterion) {
             let mut controller = Hlcs::new(nominal, ControlSettings::default());
             let mut integrator = Integrator::default();
             floor_record.clear();
-            floor_signals.time.clear();
-            floor_signals.error.clear();
-            floor_signals.position.clear();
+            floor_signals.clear();
             run_trial_with_table(
                 &plant,
                 &mut integrator,
@@ -330,9 +328,7 @@ fn line_trial(c: &mut Criterion) {
     );
     // The same trial 0 as `Master`'s, sample by sample: the floor keeps the same signals.
     assert!(
-        floor_signals.time == signals.time
-            && floor_signals.error == signals.error
-            && floor_signals.position == signals.position,
+        floor_signals == signals,
         "the floor's trial 0 differs from Master's"
     );
 

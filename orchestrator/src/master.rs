@@ -92,6 +92,15 @@ pub struct TrialSignals {
     pub position: Vec<[f64; 3]>,
 }
 
+impl TrialSignals {
+    /// Drops every sample and keeps the capacity, so that the next trial allocates nothing.
+    pub fn clear(&mut self) {
+        self.time.clear();
+        self.error.clear();
+        self.position.clear();
+    }
+}
+
 /// Steps per chunk of iteration memory that a pipelined trial hands to the next one.
 pub const CHUNK_STEPS: usize = 256;
 
@@ -685,9 +694,7 @@ impl<'s> Master<'s> {
         link: &mut L,
     ) -> Result<(), MasterError> {
         let sc = self.scenario;
-        signals.time.clear();
-        signals.error.clear();
-        signals.position.clear();
+        signals.clear();
         let h = sc.step_size;
         let interval = sc.record.interval;
         let recorded = recording.is_some();
