@@ -9,8 +9,8 @@
 //! 3. the body runs inside `catch_unwind`: it checks every pointer argument for NULL and
 //!    every length before building a slice (`nvr = 0` with NULL arrays is legal), then
 //!    calls the model;
-//! 4. a failure is logged and escalated: fmi2Error moves the instance to
-//!    [`FmiState::Terminated`], fmi2Fatal or a panic to [`FmiState::Fatal`].
+//! 4. a failure is logged and escalated, still inside `catch_unwind`: fmi2Error moves the
+//!    instance to [`FmiState::Terminated`], fmi2Fatal or a panic to [`FmiState::Fatal`].
 //!
 //! # Status escalation
 //! As Reference-FMUs does, every fmi2Error an instance function returns (an illegal call
@@ -66,12 +66,16 @@ unsafe fn guard<M: Model>(
     if !function.allowed_in(inst.glue.state) {
         return refuse_call(inst, function);
     }
-    let outcome = panic::catch_unwind(AssertUnwindSafe(|| body(&mut *inst)));
-    match outcome {
-        Ok(Ok(status)) => status.into(),
-        Ok(Err(failure)) => report_failure(inst, function, failure),
-        Err(payload) => report_panic(inst, function, payload),
-    }
+    // The body's outcome becomes the C status inside `catch_unwind`: what crosses it is
+    // one `c_int`, stored and read back whole. Crossing it as an `Outcome`, the success's
+    // 4-byte status was stored and then read as 8 bytes, a load the processor cannot
+    // forward from the store, and every fmi2DoStep waited for it (BENCHMARKS.md, round 37).
+    // A panic while a failure is reported is caught too.
+    let outcome = panic::catch_unwind(AssertUnwindSafe(|| match body(&mut *inst) {
+        Ok(status) => status.into(),
+        Err(failure) => report_failure(inst, function, failure),
+    }));
+    outcome.unwrap_or_else(|payload| report_panic(inst, function, payload))
 }
 
 // The guard's three ways out other than success, each out of line and cold: inlined into
