@@ -1,7 +1,11 @@
 //! Costs of the mechanism maths the FMUs are built on: one forward-dynamics evaluation
 //! (M, b, Cholesky solve), one inverse-dynamics evaluation (the controller's feedforward),
 //! one 1 ms integration step, and the FMI-free coupled line trial (the floor the
-//! co-simulation is compared against in BENCHMARKS.md).
+//! co-simulation is compared against in BENCHMARKS.md). `forward_dynamics_chains` compares
+//! one chain of dependent evaluations with two chains run alternately, per evaluation: if
+//! two cost less, a second evaluation fills idle units and reordering the RK4 stages could
+//! pay (the pose of stage s + 1 does not need stage s's acceleration; BENCHMARKS.md, rounds
+//! 18 and 40).
 //!
 //! Run: `cargo bench -p ckcm --bench dynamics`.
 
@@ -14,7 +18,7 @@ use ckcm::{
     ControlSettings, DormandPrince, FrictionCurve, Hlcs, Integrator, Mechanism, Params, Pose,
     ReferenceTable, Rk4, State, Trajectory,
 };
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 /// Communication step, s.
 const H: f64 = 1e-3;
@@ -75,6 +79,45 @@ fn evaluations(c: &mut Criterion) {
                 .expect("regular state")
         })
     });
+}
+
+/// Evaluations whose pose and twist depend on the acceleration of the one before, one chain
+/// or two run alternately; the throughput is per evaluation.
+fn evaluation_chains(c: &mut Criterion) {
+    let mech = plant();
+    let tau = holding_force(&mech);
+    let start = [
+        busy_state(),
+        State {
+            pose: Pose::from_xyz_euler(&[0.02, -0.01, 0.56, 0.04, -0.03, 0.02]),
+            twist: Vector6::new(0.04, -0.02, 0.03, 0.1, -0.2, 0.1),
+        },
+    ];
+    // The next state is the start plus the acceleration times zero: the processor must wait
+    // for the evaluation before it, but the state stays where it started (the products are
+    // zero for a finite acceleration), so every evaluation does the same work.
+    let next = |s: &mut State, from: &State| {
+        let accel = mech
+            .forward_dynamics(&s.pose, &s.twist, &tau)
+            .expect("regular state");
+        s.twist = from.twist + accel * 0.0;
+        s.pose.p_world.x = from.pose.p_world.x + accel[0] * 0.0;
+    };
+    let mut g = c.benchmark_group("forward_dynamics_chains");
+    g.throughput(Throughput::Elements(1));
+    g.bench_function("one", |b| {
+        let mut s = black_box(start[0]);
+        b.iter(|| next(&mut s, &start[0]))
+    });
+    g.throughput(Throughput::Elements(2));
+    g.bench_function("two", |b| {
+        let [mut a, mut z] = black_box(start);
+        b.iter(|| {
+            next(&mut a, &start[0]);
+            next(&mut z, &start[1]);
+        })
+    });
+    g.finish();
 }
 
 fn integration(c: &mut Criterion) {
@@ -154,5 +197,11 @@ fn floor_trial(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, evaluations, integration, floor_trial);
+criterion_group!(
+    benches,
+    evaluations,
+    evaluation_chains,
+    integration,
+    floor_trial
+);
 criterion_main!(benches);
