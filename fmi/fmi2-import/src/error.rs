@@ -74,29 +74,36 @@ pub enum ImportError {
         /// The platform folders the archive does have under `binaries/`, sorted.
         available: Vec<String>,
     },
-    /// The shared library could not be loaded.
-    #[error("{}: cannot load the shared library: {source}", .path.display())]
+    /// The shared library could not be loaded, or its file is damaged (checked before
+    /// loading, since a truncated file would crash the process once mapped).
+    #[error("{}: cannot load its binary {binary}: {reason}", .path.display())]
     Load {
-        /// The unpacked binary.
+        /// The .fmu file.
         path: PathBuf,
-        /// The loader's error.
-        source: libloading::Error,
+        /// The binary's path inside the archive, e.g. `binaries/linux64/CkcmPlant.so`.
+        binary: String,
+        /// What the check or the loader found.
+        reason: String,
     },
     /// A required FMI function is not exported by the binary.
-    #[error("{}: missing FMI 2.0 function {symbol}: {source}", .path.display())]
+    #[error("{}: its binary {binary} lacks the FMI 2.0 function {symbol}: {reason}", .path.display())]
     MissingSymbol {
-        /// The unpacked binary.
+        /// The .fmu file.
         path: PathBuf,
+        /// The binary's path inside the archive.
+        binary: String,
         /// The C name of the function.
         symbol: &'static str,
-        /// The loader's error.
-        source: libloading::Error,
+        /// What the loader said.
+        reason: String,
     },
     /// The binary reports another FMI version or types platform than the description.
-    #[error("{}: {function} returned \"{found}\", expected \"{expected}\"", .path.display())]
+    #[error("{}: its binary {binary}: {function} returned \"{found}\", expected \"{expected}\"", .path.display())]
     Version {
-        /// The unpacked binary.
+        /// The .fmu file.
         path: PathBuf,
+        /// The binary's path inside the archive.
+        binary: String,
         /// `fmi2GetVersion` or `fmi2GetTypesPlatform`.
         function: &'static str,
         /// What it returned.

@@ -111,32 +111,46 @@ impl Fmu {
             source,
         })?;
 
+        let load_error = |reason: String| ImportError::Load {
+            path: path.clone(),
+            binary: relative.clone(),
+            reason,
+        };
+        let data = std::fs::read(&binary).map_err(|e| load_error(e.to_string()))?;
+        crate::binary::check_complete(&data).map_err(load_error)?;
+        drop(data);
         // SAFETY: loading runs the library's initialisers. An FMU binary is code the user
         // chose to run; that trust is the premise of every FMI master.
-        let library = unsafe { Library::new(&binary) }.map_err(|source| ImportError::Load {
-            path: binary.clone(),
-            source,
-        })?;
+        let library = unsafe { Library::new(&binary) }
+            .map_err(|e| load_error(loader_reason(&e, &binary, &relative)))?;
         // SAFETY: the binary declares itself an FMI 2.0 FMU, whose exported functions have
         // the standard's signatures, which is how `Functions` types them.
         let functions = unsafe { Functions::load(&library) }.map_err(|(symbol, source)| {
             ImportError::MissingSymbol {
-                path: binary.clone(),
+                path: path.clone(),
+                binary: relative.clone(),
                 symbol,
-                source,
+                reason: loader_reason(&source, &binary, &relative),
             }
         })?;
+        let version_error = |function, found, expected| ImportError::Version {
+            path: path.clone(),
+            binary: relative.clone(),
+            function,
+            found,
+            expected,
+        };
         check_string(
-            &binary,
             "fmi2GetVersion",
             functions.fmi2GetVersion,
             FMI_VERSION,
+            version_error,
         )?;
         check_string(
-            &binary,
             "fmi2GetTypesPlatform",
             functions.fmi2GetTypesPlatform,
             TYPES_PLATFORM,
+            version_error,
         )?;
 
         Ok(Fmu {
@@ -326,10 +340,10 @@ fn copy_entries<R: Read + Seek>(
 
 /// Fails unless the binary's version string function returns `expected`.
 fn check_string(
-    binary: &Path,
     function: &'static str,
     f: unsafe extern "C" fn() -> *const std::ffi::c_char,
     expected: &'static CStr,
+    error: impl Fn(&'static str, String, &'static str) -> ImportError,
 ) -> Result<(), ImportError> {
     // SAFETY: a no-argument FMI function returning a static string (or NULL, handled).
     let ptr = unsafe { f() };
@@ -345,13 +359,19 @@ fn check_string(
     if found == expected_str {
         Ok(())
     } else {
-        Err(ImportError::Version {
-            path: binary.to_path_buf(),
-            function,
-            found,
-            expected: expected_str,
-        })
+        Err(error(function, found, expected_str))
     }
+}
+
+/// The loader's error with its cause: libloading keeps dlerror()'s text ("file too short",
+/// "undefined symbol: ...") in the source, not in its own message. The unpacked binary's
+/// temporary path in that text becomes its path inside the archive.
+fn loader_reason(e: &libloading::Error, unpacked: &Path, relative: &str) -> String {
+    let text = match std::error::Error::source(e) {
+        Some(cause) => format!("{e}: {cause}"),
+        None => e.to_string(),
+    };
+    text.replace(&*unpacked.to_string_lossy(), relative)
 }
 
 /// `file:///abs/path/` with every byte outside RFC 3986's unreserved set (and `/`)

@@ -9,6 +9,7 @@
 
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+mod binary;
 mod error;
 mod extract;
 mod fmu;

@@ -215,37 +215,74 @@ fn binary_that_is_not_a_library_fails_to_load() {
     write_fmu(&path, VALID, Some(&fake), &[("resources/data.txt", b"x")]).unwrap();
     let err = open_err(&path);
     assert!(matches!(err, ImportError::Load { .. }), "{err:?}");
+    // The .fmu, the binary inside it and the loader's own reason; no temporary path.
+    let text = err.to_string();
+    let binary = format!("binaries/{PLATFORM}/MiniPlatform.so");
     assert!(
-        err.to_string()
-            .contains(&format!("binaries/{PLATFORM}/MiniPlatform.so: cannot load")),
-        "{err}"
+        text.starts_with(&format!(
+            "{}: cannot load its binary {binary}: ",
+            path.display()
+        )),
+        "{text}"
     );
+    assert!(
+        text.contains(&format!("{binary}: file too short")),
+        "{text}"
+    );
+    assert!(!text.contains("fmi2-import-"), "{text}");
 }
 
-#[test]
-fn library_without_fmi_functions_names_the_first_missing_symbol() {
-    // Any shared library without FMI exports will do: the C runtime's libm is always present.
-    let Some(libm) = [
+/// A stand-in shared library without FMI functions: the C runtime's libm, always present.
+fn libm() -> &'static Path {
+    [
         "/lib/x86_64-linux-gnu/libm.so.6",
         "/usr/lib/x86_64-linux-gnu/libm.so.6",
         "/lib64/libm.so.6",
     ]
     .iter()
     .map(Path::new)
-    .find(|p| p.exists()) else {
-        panic!("no libm.so.6 found to stand in for a non-FMU library");
-    };
+    .find(|p| p.exists())
+    .expect("no libm.so.6 found to stand in for a non-FMU library")
+}
+
+#[test]
+fn a_truncated_binary_is_refused_before_it_is_loaded() {
+    // Loaded, a library cut short is mapped, and the first read past its end kills the
+    // process with SIGBUS; this test would then crash rather than fail.
+    let whole = std::fs::read(libm()).unwrap();
+    let dir = temp();
+    for percent in [10, 33, 90] {
+        let cut = dir.path().join(format!("cut{percent}.so"));
+        std::fs::write(&cut, &whole[..whole.len() * percent / 100]).unwrap();
+        let path = dir.path().join(format!("Cut{percent}.fmu"));
+        write_fmu(&path, VALID, Some(&cut), &[]).unwrap();
+        let err = open_err(&path);
+        assert!(matches!(err, ImportError::Load { .. }), "{err:?}");
+        let text = err.to_string();
+        assert!(
+            text.contains(&format!(
+                "cannot load its binary binaries/{PLATFORM}/MiniPlatform.so: the file is"
+            )) && (text.contains("truncated") || text.contains("damaged")),
+            "{percent} %: {text}"
+        );
+    }
+}
+
+#[test]
+fn library_without_fmi_functions_names_the_first_missing_symbol() {
     let dir = temp();
     let path = dir.path().join("Libm.fmu");
-    write_fmu(&path, VALID, Some(libm), &[]).unwrap();
+    write_fmu(&path, VALID, Some(libm()), &[]).unwrap();
     let err = open_err(&path);
     match &err {
         ImportError::MissingSymbol { symbol, .. } => assert_eq!(*symbol, "fmi2GetTypesPlatform"),
         other => panic!("{other:?}"),
     }
     assert!(
-        err.to_string()
-            .contains("missing FMI 2.0 function fmi2GetTypesPlatform"),
+        err.to_string().contains(&format!(
+            "its binary binaries/{PLATFORM}/MiniPlatform.so lacks the FMI 2.0 function \
+             fmi2GetTypesPlatform: dlsym failed: "
+        )),
         "{err}"
     );
 }

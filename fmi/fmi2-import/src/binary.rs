@@ -1,0 +1,74 @@
+//! The check an FMU's shared library passes before it is loaded.
+//!
+//! The loader maps the file and reads it on demand: a library cut short (an FMU truncated
+//! in a download or a copy) loads, and the first read past the file's end kills the whole
+//! process with SIGBUS, before any error could be returned. So the file must hold every
+//! byte its own headers claim.
+
+use object::{Object, ObjectSection, ObjectSegment};
+
+/// `Err(why)` when `data`, an ELF or PE file, is shorter than its headers say or its
+/// headers cannot be read. Other formats are left to the loader, which names them.
+pub(crate) fn check_complete(data: &[u8]) -> Result<(), String> {
+    let elf_or_pe = data.starts_with(b"\x7fELF") || data.starts_with(b"MZ");
+    if !elf_or_pe {
+        return Ok(());
+    }
+    let file =
+        object::File::parse(data).map_err(|e| format!("the file is damaged or truncated ({e})"))?;
+    let len = data.len() as u64;
+    let past_end = |what: String, (offset, size): (u64, u64)| match offset.checked_add(size) {
+        Some(end) if end <= len => Ok(()),
+        _ => Err(format!(
+            "the file is truncated: {what} at bytes {offset}..{} lies past its end \
+             ({len} bytes)",
+            offset.saturating_add(size)
+        )),
+    };
+    for (i, segment) in file.segments().enumerate() {
+        past_end(format!("segment {i}"), segment.file_range())?;
+    }
+    for section in file.sections() {
+        if let Some(range) = section.file_range() {
+            let name = section.name().unwrap_or("(unnamed)");
+            past_end(format!("section {name}"), range)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// This test binary itself: an ELF or PE file whatever the host.
+    fn own_binary() -> Vec<u8> {
+        std::fs::read(std::env::current_exe().unwrap()).unwrap()
+    }
+
+    #[test]
+    fn a_whole_binary_passes() {
+        check_complete(&own_binary()).unwrap();
+    }
+
+    #[test]
+    fn every_cut_of_a_binary_is_refused() {
+        let data = own_binary();
+        for percent in [1, 10, 33, 50, 90, 99] {
+            let cut = &data[..data.len() * percent / 100];
+            let err = check_complete(cut).expect_err("a truncated binary passed");
+            assert!(
+                err.contains("truncated") || err.contains("damaged"),
+                "{percent} %: {err}"
+            );
+        }
+        let one_short = &data[..data.len() - 1];
+        assert!(check_complete(one_short).is_err());
+    }
+
+    #[test]
+    fn other_formats_are_left_to_the_loader() {
+        assert_eq!(check_complete(b"not an ELF file"), Ok(()));
+        assert_eq!(check_complete(b""), Ok(()));
+    }
+}
