@@ -76,6 +76,11 @@ static SHARED: Mutex<Shared> = Mutex::new(Shared {
 /// How many parameter sets [`SHARED`] remembers (a 15 s trial at 1 ms takes about 2.4 MB).
 const TABLES_KEPT: usize = 4;
 
+/// Most samples in one table (about 150 bytes each): a 15 s trajectory down to steps of
+/// 75 µs. A smaller step computes its terms on the spot instead of allocating gigabytes,
+/// which a step of 0.1 µs would ask.
+const MAX_TABLE_SAMPLES: f64 = 200_000.0;
+
 /// [`SHARED`], also after a panic elsewhere poisoned its lock (the data stay consistent:
 /// every change to it is a single push, remove, count change or clear, and a panic while
 /// a table is built leaves it untouched).
@@ -83,29 +88,33 @@ fn shared() -> std::sync::MutexGuard<'static, Shared> {
     SHARED.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// The table for these arguments: a remembered one, else a new one (then remembered, the
-/// oldest forgotten). Its terms are computed exactly as the law computes them itself, so
-/// nothing the FMU outputs depends on whether a table was found.
+/// The table for these arguments: a remembered one, else with `build` a new one (then
+/// remembered, the oldest forgotten). Its terms are computed exactly as the law computes
+/// them itself, so nothing the FMU outputs depends on whether a table was found.
 fn shared_table(
     model: &Mechanism,
     trajectory: &Trajectory,
     start_time: f64,
     h: f64,
-) -> Arc<ReferenceTable> {
+    build: bool,
+) -> Option<Arc<ReferenceTable>> {
     let mut shared = shared();
     if let Some(t) = shared
         .tables
         .iter()
         .find(|t| t.is_for(model, trajectory, start_time, h))
     {
-        return Arc::clone(t);
+        return Some(Arc::clone(t));
+    }
+    if !build {
+        return None;
     }
     let table = Arc::new(ReferenceTable::new(model, trajectory, start_time, h));
     if shared.tables.len() == TABLES_KEPT {
         shared.tables.remove(0);
     }
     shared.tables.push(Arc::clone(&table));
-    table
+    Some(table)
 }
 
 /// Counts one live controller model in [`SHARED`] (made, cloned for a saved FMU state,
@@ -154,6 +163,10 @@ struct Sim {
     /// The trajectory's reference terms for the step size of the last doStep (fetched at the
     /// first doStep: the step size is not known before).
     table: Option<Arc<ReferenceTable>>,
+    /// The step size of the last doStep that ran without a table: a table is built only for
+    /// a step size used twice in a row, so a master that varies its steps does not pay for
+    /// a whole trajectory's terms at every step.
+    untabulated_h: f64,
 }
 
 impl HlcsController {
@@ -208,6 +221,7 @@ impl HlcsController {
             trajectory,
             start_time,
             table: None,
+            untabulated_h: f64::NAN,
         })
     }
 
@@ -310,12 +324,17 @@ impl Sim {
         }
     }
 
+    /// A table for step `h`: one already made, else a new one for a step size used twice in
+    /// a row whose table stays small. Otherwise none: the terms are computed on the spot,
+    /// the same bits.
     #[cold]
     #[inline(never)]
     fn fetch_table(&mut self, h: f64) {
-        if let Some(traj) = &self.trajectory {
-            self.table = Some(shared_table(&self.law.model, traj, self.start_time, h));
-        }
+        let Some(traj) = &self.trajectory else { return };
+        let repeated = h.to_bits() == self.untabulated_h.to_bits();
+        let small = traj.duration / h <= MAX_TABLE_SAMPLES;
+        self.table = shared_table(&self.law.model, traj, self.start_time, h, repeated && small);
+        self.untabulated_h = if self.table.is_some() { f64::NAN } else { h };
     }
 
     /// The terms at `t` computed on the spot: for the external reference inputs, a time off

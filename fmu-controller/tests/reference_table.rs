@@ -163,3 +163,32 @@ fn save_and_restore_reproduce_the_same_outputs() {
     let again = run_and_compare(&mut restored, &mut reference, 0.0, 0.0, 1e-3, 150..300);
     assert_eq!(first, again);
 }
+
+#[test]
+fn a_tiny_step_is_evaluated_on_the_spot_not_tabulated() {
+    // A table for 1 ns steps over the 0.4 s line would hold 4e8 samples, about 60 GB: its
+    // allocation would abort the whole process. Without a table the outputs are the law's.
+    let nominal = Params::nominal().platform.mass;
+    let mut c = controller(nominal);
+    c.initialize(0.0).unwrap();
+    let mut reference = law(nominal);
+    run_and_compare(&mut c, &mut reference, 0.0, 0.0, 1e-9, 0..5);
+}
+
+#[test]
+fn step_sizes_that_change_every_step_give_the_law_from_scratch() {
+    // A master cycling through more step sizes than the tables kept: each step is evaluated
+    // from scratch (or from a table), always the law's bits.
+    let nominal = Params::nominal().platform.mass;
+    let mut c = controller(nominal);
+    c.initialize(0.0).unwrap();
+    let mut reference = law(nominal);
+    let mut t = 0.0;
+    for n in 0..60 {
+        let h = 1e-3 * (1.0 + 0.01 * (n % 7) as f64);
+        run_and_compare(&mut c, &mut reference, 0.0, t, h, 0..1);
+        t += h;
+    }
+    // Then a fixed step again, tabulated from its second sample on.
+    run_and_compare(&mut c, &mut reference, 0.0, t, 1e-3, 0..40);
+}
