@@ -29,6 +29,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
 use clap::ValueEnum;
 use fmi2_import::Fmu;
+use fmi2_md::Shown;
 use indicatif::{ProgressBar, ProgressStyle};
 
 pub use self::lock::{DirLock, LOCK_FILE};
@@ -515,8 +516,8 @@ pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), S
              memory, more than {from} of {limit} MiB; shorten the trial, enlarge the step, \
              or raise the limit with --memory-limit-mib or memory_limit_mib in the scenario",
             scenario.steps,
-            scenario.stop_time,
-            scenario.step_size,
+            Shown(scenario.stop_time),
+            Shown(scenario.step_size),
             need as f64 / f64::from(1 << 20),
         ),
     ))

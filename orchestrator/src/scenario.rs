@@ -12,7 +12,7 @@ use fmi2_import::Fmu;
 use fmi2_md::{Causality, VarType};
 
 use crate::variables::{Literal, check_value, convert, resolve, settable};
-use fmi2_md::{ModelDescription, VariableKind};
+use fmi2_md::{ModelDescription, Shown, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -1214,7 +1214,12 @@ fn per_trial_values(
                     return cx.err(
                         span,
                         format!(
-                            "{name:?} = {b} + trial·{s} is {x} in trial {k}, outside [{lo}, {hi}]"
+                            "{name:?} = {} + trial·{} is {} in trial {k}, outside [{}, {}]",
+                            Shown(b),
+                            Shown(s),
+                            Shown(x),
+                            Shown(lo),
+                            Shown(hi)
                         ),
                     );
                 }

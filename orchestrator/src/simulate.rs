@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use fmi2_import::Status;
 use fmi2_import::{Fmu, ImportError, Instance};
 use fmi2_md::Causality;
-use fmi2_md::{ModelDescription, ScalarVariable, VariableKind};
+use fmi2_md::{ModelDescription, ScalarVariable, Shown, VariableKind};
 
 use crate::master::STATUS_CATEGORIES;
 use crate::output::{Recording, seconds};
@@ -267,19 +267,20 @@ struct Grid {
 
 impl Grid {
     fn new(start: f64, stop: f64, step: f64, can_vary_step: bool) -> Result<Grid> {
-        ensure!(start.is_finite(), "start time {start} must be finite");
+        let (start_s, stop_s, step_s) = (Shown(start), Shown(stop), Shown(step));
+        ensure!(start.is_finite(), "start time {start_s} must be finite");
         ensure!(
             stop.is_finite() && stop > start,
-            "stop time {stop} s must be after the start time {start} s"
+            "stop time {stop_s} s must be after the start time {start_s} s"
         );
         ensure!(
             step.is_finite() && step > 0.0,
-            "step size {step} s must be positive"
+            "step size {step_s} s must be positive"
         );
         let ratio = (stop - start) / step;
         ensure!(
             ratio <= MAX_STEPS as f64,
-            "{ratio:.3e} steps of {step} s from {start} s to {stop} s are more than {MAX_STEPS}; use a larger --step-size"
+            "{ratio:.3e} steps of {step_s} s from {start_s} s to {stop_s} s are more than {MAX_STEPS}; use a larger --step-size"
         );
         let rounded = ratio.round();
         let (full_steps, partial) = if (ratio - rounded).abs() <= GRID_SLACK * rounded.max(1.0) {

@@ -4,7 +4,7 @@
 
 use fmi2_import::Status;
 use fmi2_import::{ImportError, Instance};
-use fmi2_md::{Causality, Variability};
+use fmi2_md::{Causality, Shown, Variability};
 use fmi2_md::{Initial, Item, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind};
 
 /// A value of a variable's base type.
@@ -246,23 +246,26 @@ pub fn check_value(
         Value::Boolean(_) | Value::String(_) => return Ok(()),
     };
     let name = &var.name;
+    let shown = Shown(x);
     if !x.is_finite() {
-        return Err(format!("{name:?} = {x} is not a finite number"));
+        return Err(format!("{name:?} = {shown} is not a finite number"));
     }
     let (min, max) = md.range_of(var);
     let range = format!(
         "[{}, {}]",
-        min.map_or("-inf".to_owned(), |m| m.to_string()),
-        max.map_or("inf".to_owned(), |m| m.to_string())
+        min.map_or("-inf".to_owned(), |m| Shown(m).to_string()),
+        max.map_or("inf".to_owned(), |m| Shown(m).to_string())
     );
     if let Some(m) = min.filter(|&m| x < m) {
         return Err(format!(
-            "{name:?} = {x} is below its declared min = {m} (allowed range {range})"
+            "{name:?} = {shown} is below its declared min = {} (allowed range {range})",
+            Shown(m)
         ));
     }
     if let Some(m) = max.filter(|&m| x > m) {
         return Err(format!(
-            "{name:?} = {x} is above its declared max = {m} (allowed range {range})"
+            "{name:?} = {shown} is above its declared max = {} (allowed range {range})",
+            Shown(m)
         ));
     }
     Ok(())

@@ -186,6 +186,65 @@ fn bad_settings_are_named_and_nothing_is_written() {
     }
 }
 
+#[test]
+fn no_learning_at_all_converges_and_huge_gains_are_refused_or_shown_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = circle(dir.path(), None);
+    let out = dir.path().join("out");
+    // Every factor 0: the chart's log axis once had no finite lower bound and never
+    // finished; this run must end (it takes well under a second when it works).
+    let o = orchestrator()
+        .arg("analyze")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&out)
+        .args(["--forgetting", "0", "--gain", "0"])
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("Prediction (sustained masses): **converges**; peak factor 0.000"),
+        "{stdout}"
+    );
+    assert!(
+        std::fs::read_to_string(out.join("convergence.svg"))
+            .unwrap()
+            .starts_with("<svg")
+    );
+
+    // Gains that overflow are refused by name; huge finite ones print with an exponent.
+    let o = analyze(
+        &scenario,
+        &dir.path().join("over"),
+        &["--gain-scale", "1e304"],
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        stderr.contains("--gain-scale = 1e304 makes the learning gain Φ overflow to inf"),
+        "{stderr}"
+    );
+    let o = analyze(
+        &scenario,
+        &dir.path().join("huge"),
+        &["--gain-scale", "1e200"],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    let verdict = stdout
+        .lines()
+        .find(|l| l.starts_with("- Prediction (sustained masses)"))
+        .unwrap();
+    assert!(
+        verdict.contains("**diverges**; peak factor ")
+            && verdict.contains("e2")
+            && verdict.len() < 120,
+        "{verdict}"
+    );
+}
+
 /// A copy of the built FMU `name` whose model description has `from` renamed to `to`.
 fn renamed(dir: &Path, name: &str, from: &str, to: &str) -> PathBuf {
     let out = dir.join(format!("{name}.fmu"));

@@ -19,6 +19,7 @@ mod parse;
 mod raw;
 mod scan;
 mod schema;
+mod shown;
 mod validate;
 
 use std::path::Path;
@@ -54,6 +55,7 @@ pub enum Variability {
     Continuous,
 }
 pub use error::{MdError, MdErrorKind, ParseEnumError, Problem};
+pub use shown::Shown;
 
 /// A parsed FMI 2.0 model description.
 #[derive(Debug, Clone, PartialEq)]

@@ -11,7 +11,7 @@ use ckcm::convergence::{Analysis, Problem, analyse, validate};
 use ckcm::learning::{LowPass, UpdateSettings};
 use ckcm::{Gains, Mechanism, ParamError, Params, Trajectory, TrajectoryKind};
 use fmi2_import::Fmu;
-use fmi2_md::{ModelDescription, VariableKind};
+use fmi2_md::{ModelDescription, Shown, VariableKind};
 use orchestrator::output::convergence_plot::{ModeCurves, convergence_factor};
 use orchestrator::output::{write_atomic, write_table_csv};
 use orchestrator::scenario::{FmuSpec, Scenario, Value};
@@ -39,7 +39,6 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         .unwrap_or_default()
         .to_string_lossy();
     let summary = summary(&name, &problem, &analysis);
-    write_csv(&out.join("convergence.csv"), &analysis)?;
     let labels: Vec<String> = analysis
         .modes
         .iter()
@@ -69,6 +68,9 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         &analysis.frequencies,
         &curves,
     )?;
+    // The table after the chart, the likelier of the two to fail: a failure leaves the
+    // folder's earlier table and summary together.
+    write_csv(&out.join("convergence.csv"), &analysis)?;
     write_atomic(&out.join("summary.md"), |w| w.write_all(summary.as_bytes()))?;
     orchestrator::output!("{summary}");
     orchestrator::console!("results in {}", out.display());
@@ -245,6 +247,14 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
         gamma: get("gamma")? * scale,
         psi: get("psi")? * scale,
     };
+    for (name, value) in [("Φ", gains.phi), ("Γ", gains.gamma), ("Ψ", gains.psi)] {
+        if !value.is_finite() {
+            bail!(
+                "--gain-scale = {} makes the learning gain {name} overflow to {value}",
+                Shown(scale)
+            );
+        }
+    }
     // Items by name from the controller's XML, so a renumbered item needs no edit here.
     let trajectory = get("trajectory")? as i32;
     let item = |name| ctrl_md.enumeration_item("trajectory", name) == Some(trajectory);
@@ -349,6 +359,16 @@ fn cutoff_text(c: Option<f64>, h: f64) -> String {
     }
 }
 
+/// A convergence factor to three decimals, or with an exponent once that would be a long
+/// row of digits (huge gains give factors of 1e150 and more).
+fn factor(x: f64) -> String {
+    if x.abs() < 1e6 {
+        format!("{x:.3}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 /// The markdown summary.
 fn summary(name: &str, p: &Problem, a: &Analysis) -> String {
     let g = &p.gains;
@@ -401,13 +421,13 @@ fn summary(name: &str, p: &Problem, a: &Analysis) -> String {
     ] {
         let _ = writeln!(
             s,
-            "- {label}: **{}**; peak factor {:.3} at {:.2} Hz (mode {}).",
+            "- {label}: **{}**; peak factor {} at {:.2} Hz (mode {}).",
             if v.converges() {
                 "converges"
             } else {
                 "diverges"
             },
-            v.peak.value,
+            factor(v.peak.value),
             v.peak.frequency,
             v.peak.mode + 1
         );

@@ -43,7 +43,9 @@ pub fn convergence_factor(
             .flat_map(|m| m.filtered.iter().chain(m.unfiltered))
             .filter(positive)
     };
-    let lo = all().copied().fold(f64::INFINITY, f64::min).max(1e-6);
+    // Without a positive factor (every one 0: no learning), the axis keeps its floor; an
+    // infinite bound would never finish laying out the log axis' ticks.
+    let lo = all().copied().reduce(f64::min).unwrap_or(1e-6).max(1e-6);
     let hi = all().copied().fold(0.0, f64::max).max(2.0);
     let f_lo = frequencies.first().copied().unwrap_or(0.1);
     let f_hi = frequencies.last().copied().unwrap_or(500.0);

@@ -4,6 +4,7 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use fmi2_md::Shown;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -741,7 +742,7 @@ fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 pub fn value_label(v: &toml::Value) -> String {
     match v {
         toml::Value::String(s) => s.clone(),
-        toml::Value::Float(x) => x.to_string(),
+        toml::Value::Float(x) => Shown(*x).to_string(),
         toml::Value::Integer(i) => i.to_string(),
         toml::Value::Boolean(b) => b.to_string(),
         other => other.to_string().replace('\n', " "),
