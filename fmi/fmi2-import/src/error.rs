@@ -81,9 +81,9 @@ pub enum ImportError {
         /// The .fmu file.
         path: PathBuf,
         /// The binary's path inside the archive, e.g. `binaries/linux64/CkcmPlant.so`.
-        binary: String,
+        binary: Box<str>,
         /// What the check or the loader found.
-        reason: String,
+        reason: Box<str>,
     },
     /// A required FMI function is not exported by the binary.
     #[error("{}: its binary {binary} lacks the FMI 2.0 function {symbol}: {reason}", .path.display())]
@@ -91,11 +91,11 @@ pub enum ImportError {
         /// The .fmu file.
         path: PathBuf,
         /// The binary's path inside the archive.
-        binary: String,
+        binary: Box<str>,
         /// The C name of the function.
         symbol: &'static str,
         /// What the loader said.
-        reason: String,
+        reason: Box<str>,
     },
     /// The binary reports another FMI version or types platform than the description.
     #[error("{}: its binary {binary}: {function} returned \"{found}\", expected \"{expected}\"", .path.display())]
@@ -103,7 +103,7 @@ pub enum ImportError {
         /// The .fmu file.
         path: PathBuf,
         /// The binary's path inside the archive.
-        binary: String,
+        binary: Box<str>,
         /// `fmi2GetVersion` or `fmi2GetTypesPlatform`.
         function: &'static str,
         /// What it returned.

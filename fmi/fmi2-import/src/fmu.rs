@@ -113,8 +113,8 @@ impl Fmu {
 
         let load_error = |reason: String| ImportError::Load {
             path: path.clone(),
-            binary: relative.clone(),
-            reason,
+            binary: relative.as_str().into(),
+            reason: reason.into(),
         };
         let data = std::fs::read(&binary).map_err(|e| load_error(e.to_string()))?;
         crate::binary::check_complete(&data).map_err(load_error)?;
@@ -128,14 +128,14 @@ impl Fmu {
         let functions = unsafe { Functions::load(&library) }.map_err(|(symbol, source)| {
             ImportError::MissingSymbol {
                 path: path.clone(),
-                binary: relative.clone(),
+                binary: relative.as_str().into(),
                 symbol,
-                reason: loader_reason(&source, &binary, &relative),
+                reason: loader_reason(&source, &binary, &relative).into(),
             }
         })?;
         let version_error = |function, found, expected| ImportError::Version {
             path: path.clone(),
-            binary: relative.clone(),
+            binary: relative.as_str().into(),
             function,
             found,
             expected,
