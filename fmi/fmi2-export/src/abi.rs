@@ -913,11 +913,15 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 }
 
 /// fmi2DeSerializeFMUstate: validates a serialized state (magic, version, model
-/// identifier and GUID, glue fields, exact length) and restores its payload into a fresh
-/// model, stored like [`get_fmu_state`] does. Every rejection names what is wrong.
+/// identifier and GUID, glue fields, exact length) and restores its payload into a new
+/// snapshot, whose pointer goes to `*state`. Every rejection names what is wrong.
+///
+/// Unlike fmi2GetFMUstate's, this `FMUstate` is an output only (FMI 2.0 §2.1.8: the
+/// function "constructs a copy of the FMU state and returns" it), so what `*state` held
+/// is never read: a master may pass an uninitialised variable.
 ///
 /// # Safety
-/// See the module's safety contract; `*state` is NULL or an FMU state of this FMU.
+/// See the module's safety contract.
 pub unsafe fn de_serialize_fmu_state<M: Model>(
     c: Fmi2Component,
     serialized_state: *const Fmi2Byte,
@@ -933,8 +937,7 @@ pub unsafe fn de_serialize_fmu_state<M: Model>(
             DecodeError::Invalid(message) => Failure::error(message),
             DecodeError::Model(e) => Failure::from(e),
         })?;
-        // SAFETY: `*slot` is NULL or an FMU state (this function's contract).
-        unsafe { store_snapshot(slot, snap) }?;
+        *slot = Box::into_raw(Box::new(snap)).cast::<c_void>();
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.

@@ -193,6 +193,14 @@ pub(crate) struct Failure {
 }
 
 impl Failure {
+    /// An fmi2Warning: the call did its work, with a remark.
+    pub(crate) fn warning(message: impl Into<String>) -> Self {
+        Self {
+            status: Status::Warning,
+            message: message.into(),
+        }
+    }
+
     /// An fmi2Error.
     pub(crate) fn error(message: impl Into<String>) -> Self {
         Self {
@@ -398,31 +406,33 @@ impl<M: Model> Instance<M> {
         }
     }
 
-    /// fmi2SetDebugLogging: `categories` empty means all; otherwise each named category
-    /// is switched to `on`. Unknown names reject the whole call without any change.
+    /// fmi2SetDebugLogging: `categories` empty, or the name `logAll` that many tools send,
+    /// means all; otherwise each named category is switched to `on`. Names this FMU does
+    /// not declare are skipped with fmi2Warning: an error would end the instance (every
+    /// fmi2Error does) over a master's logging preference.
     pub(crate) fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> Outcome {
-        if categories.is_empty() {
+        if categories.is_empty() || categories.iter().any(|c| c == "logAll") {
             self.enabled = [on; 5];
-            return Ok(Status::Ok);
         }
-        let mut picked = Vec::with_capacity(categories.len());
-        for name in categories {
-            let Some(k) = LOG_CATEGORIES
+        let mut unknown = Vec::new();
+        for name in categories.iter().filter(|c| *c != "logAll") {
+            match LOG_CATEGORIES
                 .iter()
                 .position(|c| c.to_bytes() == name.as_bytes())
-            else {
-                let known: Vec<_> = LOG_CATEGORIES.iter().map(|c| c.to_string_lossy()).collect();
-                return Err(Failure::error(format!(
-                    "unknown log category '{name}'; this FMU declares {}",
-                    known.join(", ")
-                )));
-            };
-            picked.push(k);
+            {
+                Some(k) => self.enabled[k] = on,
+                None => unknown.push(format!("'{name}'")),
+            }
         }
-        for k in picked {
-            self.enabled[k] = on;
+        if unknown.is_empty() {
+            return Ok(Status::Ok);
         }
-        Ok(Status::Ok)
+        let known: Vec<_> = LOG_CATEGORIES.iter().map(|c| c.to_string_lossy()).collect();
+        Err(Failure::warning(format!(
+            "unknown log category {} ignored; this FMU declares {} (or logAll for all)",
+            unknown.join(", "),
+            known.join(", ")
+        )))
     }
 
     /// The declared variable `vr` as seen by a typed get/set function.

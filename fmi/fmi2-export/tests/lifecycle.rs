@@ -298,7 +298,7 @@ fn logger_always_gets_percent_s_and_the_text_verbatim() {
     // SAFETY: one valid category string.
     let s =
         unsafe { abi::set_debug_logging::<Oscillator>(fmu.c, 1, 1, [hostile.as_ptr()].as_ptr()) };
-    assert_eq!(status(s), Status::Error);
+    assert_eq!(status(s), Status::Warning);
     let records = fmu.log.records();
     assert!(!records.is_empty());
     for r in &records {
@@ -308,7 +308,7 @@ fn logger_always_gets_percent_s_and_the_text_verbatim() {
     assert!(
         records.iter().any(|r| r
             .message
-            .starts_with("fmi2SetDebugLogging: unknown log category 'log%s%n%x'")),
+            .starts_with("fmi2SetDebugLogging: unknown log category 'log%s%n%x' ignored")),
         "{records:?}"
     );
 
@@ -375,16 +375,40 @@ fn debug_logging_filters_categories_but_never_errors() {
     assert_eq!(fmu.terminate(), Status::Ok);
     assert!(fmu.log.contains("fmi2Terminate: "));
 
-    // An unknown category is an error naming it.
-    let bad = [CString::new("logEverything").unwrap()];
-    let ptrs: Vec<_> = bad.iter().map(|c| c.as_ptr()).collect();
+    // An unknown category is a warning naming it; the known ones beside it are switched,
+    // and the instance goes on.
+    let off = Fmu::with_logging("off", true);
+    // SAFETY: n = 0.
+    let s = unsafe { abi::set_debug_logging::<Oscillator>(off.c, 0, 0, ptr::null()) };
+    assert_eq!(status(s), Status::Ok);
+    let names = [
+        CString::new("logEverything").unwrap(),
+        CString::new("logStatusWarning").unwrap(),
+        CString::new("logEvents").unwrap(),
+    ];
+    let ptrs: Vec<_> = names.iter().map(|c| c.as_ptr()).collect();
+    // SAFETY: three valid strings.
+    let s = unsafe { abi::set_debug_logging::<Oscillator>(off.c, 1, 3, ptrs.as_ptr()) };
+    assert_eq!(status(s), Status::Warning);
+    assert!(off.log.contains(
+        "fmi2SetDebugLogging: unknown log category 'logEverything' ignored; this FMU declares"
+    ));
+    off.log.clear();
+    assert_eq!(off.reset(), Status::Ok);
+    assert!(off.log.contains("fmi2Reset: "), "logEvents is on");
+
+    // logAll, which many tools send, switches every category.
+    let all = Fmu::with_logging("all", true);
+    // SAFETY: n = 0.
+    let s = unsafe { abi::set_debug_logging::<Oscillator>(all.c, 0, 0, ptr::null()) };
+    assert_eq!(status(s), Status::Ok);
+    let log_all = [CString::new("logAll").unwrap()];
+    let ptrs: Vec<_> = log_all.iter().map(|c| c.as_ptr()).collect();
     // SAFETY: one valid string.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(fmu.c, 1, 1, ptrs.as_ptr()) };
-    assert_eq!(status(s), Status::Error);
-    assert!(
-        fmu.log
-            .contains("fmi2SetDebugLogging: unknown log category 'logEverything'")
-    );
+    let s = unsafe { abi::set_debug_logging::<Oscillator>(all.c, 1, 1, ptrs.as_ptr()) };
+    assert_eq!(status(s), Status::Ok);
+    assert_eq!(all.reset(), Status::Ok);
+    assert!(all.log.contains("fmi2Reset: "), "logEvents is on");
 
     // Errors reach the logger even with every category off.
     let quiet = Fmu::new("quiet");

@@ -181,11 +181,20 @@ fn serialized_state_continues_bit_identically_in_a_fresh_instance() {
     let mut s = ptr::null_mut();
     assert_eq!(c.deserialize(&bytes, &mut s), Status::Ok);
     assert_eq!(c.serialize(s), bytes);
-    // Deserializing into an existing snapshot overwrites it in place.
-    let keep = s;
+    // FMUstate is an output only: a previous snapshot in it is neither read nor
+    // overwritten, a new one is made; both stay valid until freed.
+    let mut previous = s;
     assert_eq!(c.deserialize(&bytes, &mut s), Status::Ok);
-    assert_eq!(s, keep);
+    assert_ne!(s, previous);
+    assert_eq!(c.serialize(previous), bytes);
+    assert_eq!(c.free_state(&mut previous), Status::Ok);
+    assert_eq!(c.serialize(s), bytes);
     assert_eq!(c.free_state(&mut s), Status::Ok);
+    // Nor is a stale or uninitialised value read (this one would crash if it were).
+    let mut junk = 0x1000 as Fmi2FmuState;
+    assert_eq!(c.deserialize(&bytes, &mut junk), Status::Ok);
+    assert_eq!(c.serialize(junk), bytes);
+    assert_eq!(c.free_state(&mut junk), Status::Ok);
 }
 
 /// The FMU time after `n` steps of 0.01 from 0 with cp = k·0.01.
