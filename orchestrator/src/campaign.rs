@@ -500,27 +500,45 @@ fn memory_limit_mib(scenario: &Scenario, limit_mib: Option<u64>) -> (u64, &'stat
     }
 }
 
-/// Refuses a campaign whose [`memory_estimate`] exceeds the limit, naming the scenario line
-/// that sets its length, before anything is allocated.
+/// Refuses a campaign whose [`memory_estimate`] exceeds the limit, or more than the process
+/// can allocate, naming the scenario line that sets its length, before anything is
+/// allocated.
+///
+/// The second check reserves the estimate once and frees it at once (address space only,
+/// nothing is touched): with the limit raised past what the machine or `ulimit -v` allows,
+/// the buffers' own allocation would otherwise fail later, and a failed allocation aborts
+/// the process instead of returning an error.
 pub fn check_memory(scenario: &Scenario, limit_mib: Option<u64>) -> Result<(), ScenarioError> {
     let (limit, from) = memory_limit_mib(scenario, limit_mib);
     let need = memory_estimate(scenario);
-    if need <= limit.saturating_mul(1 << 20) {
-        return Ok(());
+    let what = format!(
+        "{} steps per trial (stop_time = {} s, step_size = {} s) need about {:.1} MiB of memory",
+        scenario.steps,
+        Shown(scenario.stop_time),
+        Shown(scenario.step_size),
+        need as f64 / f64::from(1 << 20),
+    );
+    let refuse = |why: String| {
+        Err(ScenarioError::new(
+            scenario.source.clone(),
+            scenario.stop_time_line,
+            format!("{what}, {why}"),
+        ))
+    };
+    if need > limit.saturating_mul(1 << 20) {
+        return refuse(format!(
+            "more than {from} of {limit} MiB; shorten the trial, enlarge the step, or raise \
+             the limit with --memory-limit-mib or memory_limit_mib in the scenario"
+        ));
     }
-    Err(ScenarioError::new(
-        scenario.source.clone(),
-        scenario.stop_time_line,
-        format!(
-            "{} steps per trial (stop_time = {} s, step_size = {} s) need about {:.1} MiB of \
-             memory, more than {from} of {limit} MiB; shorten the trial, enlarge the step, \
-             or raise the limit with --memory-limit-mib or memory_limit_mib in the scenario",
-            scenario.steps,
-            Shown(scenario.stop_time),
-            Shown(scenario.step_size),
-            need as f64 / f64::from(1 << 20),
-        ),
-    ))
+    let reservable =
+        usize::try_from(need).is_ok_and(|bytes| Vec::<u8>::new().try_reserve_exact(bytes).is_ok());
+    if !reservable {
+        return refuse(
+            "more than this process can allocate now; shorten the trial or enlarge the step".into(),
+        );
+    }
+    Ok(())
 }
 
 /// Counts file operations and aborts the process at the requested one (see

@@ -199,6 +199,44 @@ fn a_campaign_beyond_the_memory_limit_is_refused_with_the_scenario_line() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// A limit raised past what the process may allocate (here `ulimit -v`, 3 GB of address
+/// space against the 11 GiB the trial needs) is refused up front; a failed allocation
+/// later would abort the process with a backtrace and leave the folder's lock behind.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_limit_beyond_what_the_process_can_allocate_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let huge = tmp.path().join("huge.toml");
+    std::fs::write(
+        &huge,
+        std::fs::read_to_string(&s)
+            .unwrap()
+            .replace("stop_time = 0.5", "stop_time = 1000000"),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(
+            "ulimit -v 3000000 && exec \"$0\" run \"$1\" --out \"$2\" --memory-limit-mib 100000000",
+        )
+        .arg(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg(&huge)
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("huge.toml:2:"), "{err}");
+    assert!(
+        err.contains("more than this process can allocate now"),
+        "{err}"
+    );
+    assert!(!err.contains("backtrace"), "{err}");
+    assert!(!out.exists());
+}
+
 /// Byte offset of the first memory value in a format-2 memory file with one channel.
 const FIRST_VALUE: usize = 8 + 8 + 8;
 
