@@ -554,11 +554,33 @@ impl Scenario {
             let Some((path, md)) = cx.keep(opened) else {
                 continue;
             };
-            let mut settings = Vec::new();
+            let mut settings: Vec<Setting> = Vec::new();
+            // Which key set each variable: a whole array and one of its elements (or two
+            // names of one variable) would both apply, the later silently winning.
+            let mut set_by: Vec<(u32, &Spanned<String>)> = Vec::new();
             for (key, value) in &f.parameters {
-                if let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) {
-                    settings.extend(s);
+                let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) else {
+                    continue;
+                };
+                for new in &s {
+                    if let Some((_, first)) =
+                        set_by.iter().find(|(vr, _)| *vr == new.value_reference)
+                    {
+                        cx.keep::<()>(cx.err(
+                            key.span(),
+                            format!(
+                                "parameter {:?} sets {} again: {:?} on line {} already sets it; \
+                                 give each value once",
+                                key.get_ref(),
+                                new.name,
+                                first.get_ref(),
+                                line_of(cx.text, first.span().start)
+                            ),
+                        ));
+                    }
+                    set_by.push((new.value_reference, key));
                 }
+                settings.extend(s);
             }
             fmus.push(FmuSpec {
                 name: name.clone(),

@@ -137,6 +137,62 @@ fn a_zip_without_model_description() {
 }
 
 #[test]
+fn an_fmu_whose_binary_is_cut_short() {
+    // Loaded as it is, the library would be mapped and the first read past its end would
+    // kill the process with SIGBUS, no message at all.
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = dir.path().join("cut.fmu");
+    repackage(&foreign_fmu(dir.path()), &fmu, |name, bytes| {
+        Some(if name.starts_with("binaries/") {
+            bytes[..bytes.len() / 3].to_vec()
+        } else {
+            bytes
+        })
+    });
+    check_fmu_problem(
+        dir.path(),
+        &fmu,
+        &format!(
+            "{}: cannot load its binary binaries/{}/ForeignOscillator.{}: the file is",
+            fmu.display(),
+            fmi2_import::PLATFORM,
+            fmi2_import::SHARED_LIBRARY_EXTENSION
+        ),
+    );
+}
+
+#[test]
+fn a_parameter_set_twice_in_one_fmu_table() {
+    // The whole array and one of its elements: both would apply, the later winning.
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("twice.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "step_size = 0.001\nstop_time = 0.01\n\n[[fmu]]\nname = \"plant\"\npath = {:?}\n\
+             [fmu.parameters]\ninitial_pose = [0.01, 0, 0, 0, 0, 0]\n\"initial_pose[1]\" = 0.02\n",
+            built_fmu("CkcmPlant").to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says(&format!("{}:9:", scenario.display()))
+    .says(
+        "parameter \"initial_pose[1]\" sets initial_pose[1] again: \"initial_pose\" on line 8 \
+         already sets it; give each value once",
+    );
+}
+
+#[test]
 fn malformed_model_description() {
     let dir = tempfile::tempdir().unwrap();
     let xml = foreign_xml().replace("</ModelVariables>", "</ModelVariablez>");
