@@ -724,6 +724,16 @@ impl Scenario {
                         ),
                     ));
                 }
+                let listed = t.get_ref();
+                if let Some(twice) = listed
+                    .iter()
+                    .enumerate()
+                    .find_map(|(i, k)| listed[..i].contains(k).then_some(k))
+                {
+                    cx.keep::<()>(
+                        cx.err(t.span(), format!("record.trials lists trial {twice} twice")),
+                    );
+                }
                 Some(t.get_ref().iter().copied().collect())
             }
         };
@@ -733,6 +743,25 @@ impl Scenario {
             };
             {
                 let m = spanned.get_ref();
+                // The metrics compute in metres: a variable whose declared unit is another
+                // (a force, an angle) would give figures that look right and mean nothing.
+                let in_metres = |r: &Spanned<String>, what: &str, port: &Port, first: usize| {
+                    let md = &mds[port.fmu];
+                    let other = port.value_references[..first].iter().find_map(|&vr| {
+                        let v = md.variable_by_vr(VarType::Real, vr)?;
+                        md.unit_of(v).filter(|&u| u != "m").map(|u| (&v.name, u))
+                    });
+                    match other {
+                        Some((name, unit)) => cx.err(
+                            r.span(),
+                            format!(
+                                "{what} {:?}: {name} is in {unit}; the metrics need lengths in m",
+                                r.get_ref()
+                            ),
+                        ),
+                        None => Ok(()),
+                    }
+                };
                 let six = |r: &Spanned<String>, what: &str| {
                     let port = resolve(r, what)?;
                     if port.names.len() != 6 || port.var_type != VarType::Real {
@@ -744,6 +773,7 @@ impl Scenario {
                             ),
                         );
                     }
+                    in_metres(r, what, &port, 6)?;
                     Ok(port)
                 };
                 let error = match (&m.error, &m.reference, &m.length) {
@@ -774,6 +804,7 @@ impl Scenario {
                         if port.names.len() < 3 || port.var_type != VarType::Real {
                             return cx.err(p.span(), format!("metrics.pose {:?} must be at least three Real variables (x, y, z)", p.get_ref()));
                         }
+                        in_metres(p, "metrics.pose", &port, 3)?;
                         Some(port)
                     }
                 };

@@ -158,12 +158,22 @@ struct Plan {
 
 impl Plan {
     fn new(args: &SimulateOptions, md: &ModelDescription) -> Result<Plan> {
-        let mut starts = Vec::new();
+        let mut starts: Vec<Assignment> = Vec::new();
+        // Which --set gave each variable: a second one would silently win.
+        let mut set_by: Vec<&str> = Vec::new();
         for text in &args.set {
-            starts.extend(
-                parse_assignment(md, text)
-                    .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?,
-            );
+            let new = parse_assignment(md, text)
+                .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?;
+            for a in &new {
+                if let Some(i) = starts.iter().position(|s| s.vr == a.vr) {
+                    return Err(SimulateError::Invalid(format!(
+                        "--set {text}: {} is already set by --set {}; give each value once",
+                        a.name, set_by[i]
+                    )));
+                }
+            }
+            set_by.extend(std::iter::repeat_n(text.as_str(), new.len()));
+            starts.extend(new);
         }
         let experiment = md.default_experiment.clone().unwrap_or_default();
         let start = args.start_time.or(experiment.start_time).unwrap_or(0.0);
@@ -538,11 +548,15 @@ impl Recorder {
                 })
                 .collect()
         } else {
-            let mut vars = Vec::new();
+            let mut vars: Vec<&ScalarVariable> = Vec::new();
             for name in names {
                 let found = resolve(md, name);
                 if found.is_empty() {
                     bail!("--record {name}: {}", no_such_variable(md, name));
+                }
+                // Two columns of one name would leave the CSV ambiguous, as in a scenario.
+                if let Some(twice) = found.iter().find(|v| vars.iter().any(|w| w.name == v.name)) {
+                    bail!("--record {name}: {} is recorded twice", twice.name);
                 }
                 vars.extend(found);
             }

@@ -460,3 +460,87 @@ fn jobs_zero_is_refused_by_run_sweep_and_paper() {
             .says("must be a whole number of at least 1");
     }
 }
+
+#[test]
+fn simulate_given_one_variable_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(dir.path());
+    let csv = dir.path().join("result.csv");
+    // Two values for one parameter: the second would silently win.
+    fails(
+        &[
+            "simulate".as_ref(),
+            fmu.as_os_str(),
+            "--set".as_ref(),
+            "mass=1".as_ref(),
+            "--set".as_ref(),
+            "mass=2".as_ref(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says("--set mass=2: mass is already set by --set mass=1; give each value once");
+    // One variable recorded twice: two columns of one name.
+    fails(
+        &[
+            "simulate".as_ref(),
+            fmu.as_os_str(),
+            "--record".as_ref(),
+            "x".as_ref(),
+            "--record".as_ref(),
+            "x".as_ref(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says("--record x: x is recorded twice");
+}
+
+#[test]
+fn scenario_recording_a_trial_twice_or_measuring_a_force_as_a_length() {
+    let dir = tempfile::tempdir().unwrap();
+    let (controller, plant) = (built_fmu("HlcsController"), built_fmu("CkcmPlant"));
+    let write = |stem: &str, tail: &str| {
+        let path = dir.path().join(format!("{stem}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "step_size = 0.001\ntrials = 3\nstop_time = 0.01\n\n\
+                 [[fmu]]\nname = \"controller\"\npath = {:?}\n\n\
+                 [[fmu]]\nname = \"plant\"\npath = {:?}\n\n{tail}",
+                controller.to_str().unwrap(),
+                plant.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let out = dir.path().join("out");
+    let run = |scenario: &Path| {
+        fails(
+            &[
+                "run".as_ref(),
+                scenario.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            &out,
+        )
+    };
+    let twice = write(
+        "twice",
+        "[record]\nvariables = [\"plant.length\"]\ntrials = [1, 2, 1]\n",
+    );
+    run(&twice)
+        .says(&format!("{}:15:", twice.display()))
+        .says("record.trials lists trial 1 twice");
+    let force = write(
+        "force",
+        "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.force\"\n",
+    );
+    run(&force)
+        .says(&format!("{}:15:", force.display()))
+        .says("metrics.length \"plant.force\": force[1] is in N; the metrics need lengths in m");
+}

@@ -585,6 +585,25 @@ impl ModelDescription {
         self.unit_definitions.iter().find(|u| u.name == name)
     }
 
+    /// The unit of a Real variable: its own `unit`, else its declared type's. `None` for
+    /// other types and for Reals without one.
+    pub fn unit_of<'a>(&'a self, v: &'a ScalarVariable) -> Option<&'a str> {
+        let VariableKind::Real {
+            declared_type,
+            unit,
+            ..
+        } = &v.kind
+        else {
+            return None;
+        };
+        unit.as_deref().or_else(
+            || match &self.simple_type(declared_type.as_deref()?)?.kind {
+                SimpleTypeKind::Real { unit, .. } => unit.as_deref(),
+                _ => None,
+            },
+        )
+    }
+
     /// Looks up a type definition by name.
     pub fn simple_type(&self, name: &str) -> Option<&SimpleType> {
         self.type_definitions.iter().find(|t| t.name == name)
