@@ -281,6 +281,37 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
             "sweep.toml:9",
             "samples must be at least 1",
         ),
+        // An axis named like one of sweep.csv's own columns would make two of that name.
+        (
+            text.replace("name = \"mass\"", "name = \"case\""),
+            "sweep.toml:4",
+            "axis name \"case\" is a column sweep.csv already has",
+        ),
+        (
+            text.replace("name = \"mass\"", "name = \"rms_2\""),
+            "sweep.toml:4",
+            "axis name \"rms_2\" is a column sweep.csv already has",
+        ),
+        // Two values shown alike could not be told apart in the tables and figures.
+        (
+            text.replace(
+                "values = [0.8, 1.0, 1.2]",
+                "values = [0.8, 1.0, 1.2]\nlabels = [\"a\", \"b\", \"a\"]",
+            ),
+            "sweep.toml:4",
+            "labels lists \"a\" twice (values 1 and 3)",
+        ),
+        // An output is no parameter to sweep.
+        (
+            text.replace("plant.platform_mass", "plant.length"),
+            "sweep.toml:4",
+            "axis \"mass\": FMU \"plant\": 'length[1]' is an output",
+        ),
+        (
+            format!("{text}[report]\nthreshold = nan\n"),
+            "sweep.toml:16",
+            "report.threshold = NaN must be positive",
+        ),
         // Each axis within the limit, their product beyond it: the axis that passes it.
         (
             text.replace("samples = 2", "samples = 400000"),
@@ -471,4 +502,37 @@ fn a_refused_case_names_the_sweep_case_and_base_not_a_generated_file() {
     );
     assert!(!err.contains("case_0000"), "{err}");
     assert!(!out.exists(), "a refused sweep wrote {}", out.display());
+}
+
+#[test]
+fn a_failing_case_is_reported_and_counted_and_the_sweep_goes_on() {
+    let tmp = tempfile::tempdir().unwrap();
+    setup(tmp.path(), 1);
+    // A feedback gain 200 times the default drives the plant out of its workspace at once.
+    let sweep = tmp.path().join("kp.toml");
+    fs::write(
+        &sweep,
+        "base = \"base.toml\"\ntrials = 1\n\
+         [[axis]]\nname = \"kp\"\nparameters = [\"controller.kp\"]\nvalues = [50000.0, 1e7]\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let o = orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .args(["--jobs", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("case 0 done, 1 of 2 (50000)"), "{err}");
+    assert!(err.contains("case 1 failed: trial 0, t = "), "{err}");
+    assert!(
+        err.contains("1 of the 2 cases run here failed; each one's outcome.toml says why"),
+        "{err}"
+    );
+    let outcome = fs::read_to_string(out.join("cases/case_0001/outcome.toml")).unwrap();
+    assert!(outcome.contains("status = \"failed\""), "{outcome}");
 }

@@ -278,19 +278,25 @@ fn plan(
     for axis in &spec.axes {
         if let Target::Parameters(ps) = &axis.target {
             for (fmu, name) in ps {
-                let known = base
+                let vars = base
                     .fmus
                     .iter()
                     .find(|(n, _, _)| n == fmu)
-                    .is_some_and(|(_, _, md)| md.variable_by_name(name).is_some());
-                if !known {
+                    .map(|(_, _, md)| crate::variables::resolve(md, name))
+                    .unwrap_or_default();
+                // Unknown, or known but not a value a master may give (an output).
+                let problem = match vars.first() {
+                    None => Some(format!("FMU {fmu:?} has no variable {name:?}")),
+                    Some(_) => vars
+                        .iter()
+                        .find_map(|v| crate::variables::settable(v).err())
+                        .map(|why| format!("FMU {fmu:?}: {why}")),
+                };
+                if let Some(problem) = problem {
                     return Err(SweepSpecError {
                         file: spec.source.clone(),
                         line: axis.line,
-                        message: format!(
-                            "axis {:?}: FMU {fmu:?} has no variable {name:?}",
-                            axis.name
-                        ),
+                        message: format!("axis {:?}: {problem}", axis.name),
                     }
                     .into());
                 }
@@ -394,6 +400,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     let jobs = opts.jobs.clamp(1, todo.len().max(1));
     let next = AtomicUsize::new(0);
     let first_error: Mutex<Option<SweepError>> = Mutex::new(None);
+    let failed = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| {
@@ -403,19 +410,28 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                 loop {
                     let slot = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = todo.get(slot) else { break };
-                    let result = run_case(spec, &plans[i], out, i, opts, &mut kept);
-                    if let Err(e) = result {
-                        first_error
-                            .lock()
-                            .unwrap_or_else(PoisonError::into_inner)
-                            .get_or_insert(e);
-                        next.store(todo.len(), Ordering::Relaxed);
-                        break;
+                    let failure = match run_case(spec, &plans[i], out, i, opts, &mut kept) {
+                        Ok(failure) => failure,
+                        Err(e) => {
+                            first_error
+                                .lock()
+                                .unwrap_or_else(PoisonError::into_inner)
+                                .get_or_insert(e);
+                            next.store(todo.len(), Ordering::Relaxed);
+                            break;
+                        }
+                    };
+                    if failure.is_some() {
+                        failed.fetch_add(1, Ordering::Relaxed);
                     }
                     if opts.progress {
                         let count = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        let ended = match &failure {
+                            None => "done,".to_string(),
+                            Some(why) => format!("failed: {why};"),
+                        };
                         crate::console!(
-                            "case {i} done, {count} of {} ({})",
+                            "case {i} {ended} {count} of {} ({})",
                             mine.len(),
                             spec.case_labels(i).join(", ")
                         );
@@ -430,6 +446,14 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     {
         return Err(e);
     }
+    let failed = failed.into_inner();
+    if failed > 0 {
+        crate::console!(
+            "{failed} of the {} cases run here failed; each one's outcome.toml says why, and \
+             sweep.csv marks it",
+            todo.len()
+        );
+    }
     match opts.shard {
         Some((k, n)) => write_text(
             &out.join("shard.toml"),
@@ -440,7 +464,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     Ok(todo)
 }
 
-/// Runs one case as an ordinary campaign; an FMU failure ends the case as failed, not the sweep.
+/// Runs one case as an ordinary campaign; an FMU failure ends the case as failed (its
+/// message returned), not the sweep.
 fn run_case(
     spec: &SweepSpec,
     (scenario, text): &(Scenario, String),
@@ -448,7 +473,7 @@ fn run_case(
     i: usize,
     opts: &SweepOptions,
     kept: &mut KeptFmus,
-) -> Result<(), SweepError> {
+) -> Result<Option<String>, SweepError> {
     let dir = case_dir(out, i);
     let mut fmus = Vec::with_capacity(scenario.fmus.len());
     for (slot, f) in scenario.fmus.iter().enumerate() {
@@ -474,10 +499,14 @@ fn run_case(
     if ran.is_err() {
         kept.clear();
     }
-    let outcome = match ran {
-        Ok(_) => "status = \"completed\"\n".to_string(),
+    let (outcome, failure) = match ran {
+        Ok(_) => ("status = \"completed\"\n".to_string(), None),
         Err(CampaignError::Master(e)) => {
-            format!("status = \"failed\"\nmessage = {:?}\n", e.to_string())
+            let message = e.to_string();
+            (
+                format!("status = \"failed\"\nmessage = {message:?}\n"),
+                Some(message),
+            )
         }
         Err(e) => {
             return Err(SweepError::Campaign {
@@ -491,7 +520,7 @@ fn run_case(
         message: e.to_string(),
     })?;
     write_text(&dir.join("outcome.toml"), &outcome)?;
-    Ok(())
+    Ok(failure)
 }
 
 #[derive(Debug, serde::Deserialize)]

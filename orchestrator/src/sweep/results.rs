@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::spec::SweepSpec;
+use super::spec::{RESULT_COLUMNS, SweepSpec};
 use super::{SweepError, case_dir, write_text};
 use crate::campaign::read_summary;
 use crate::output::{OutputError, sweep_plots, write_table_csv};
@@ -136,18 +136,7 @@ pub fn write_results(spec: &SweepSpec, out: &Path) -> Result<(), SweepError> {
     let k = trials(&results);
     let mut header: Vec<String> = vec!["case".into()];
     header.extend(spec.axes.iter().map(|a| a.name.clone()));
-    header.extend(
-        [
-            "verdict",
-            "trials",
-            "best",
-            "best_trial",
-            "final",
-            "trials_to_10pct",
-            "trials_to_1pct",
-        ]
-        .map(String::from),
-    );
+    header.extend(RESULT_COLUMNS.map(String::from));
     header.extend((0..k).map(|t| format!("max_{t}")));
     header.extend((0..k).map(|t| format!("rms_{t}")));
     let rows: Vec<Vec<String>> = results

@@ -97,7 +97,7 @@ fn default_stride() -> i64 {
 #[serde(deny_unknown_fields)]
 struct RawReport {
     #[serde(default)]
-    threshold: Option<f64>,
+    threshold: Option<Spanned<f64>>,
 }
 
 /// What an axis changes in the base scenario.
@@ -381,11 +381,14 @@ impl SweepSpec {
                 })
             }
         };
-        let threshold = raw.report.and_then(|r| r.threshold).unwrap_or(5e-5);
+        let (threshold, span) = raw
+            .report
+            .and_then(|r| r.threshold)
+            .map_or((5e-5, 0..0), |t| (*t.get_ref(), t.span()));
         if !(threshold.is_finite() && threshold > 0.0) {
             return Err(err(
-                0..0,
-                format!("report.threshold = {threshold} must be positive"),
+                span,
+                format!("report.threshold = {} must be positive", Shown(threshold)),
             ));
         }
         Ok(SweepSpec {
@@ -688,7 +691,16 @@ fn build_axis(
         Some(l) if l.len() != values.len() => {
             return Err(format!("{} labels for {} values", l.len(), values.len()));
         }
-        Some(l) => l.clone(),
+        Some(l) => {
+            if let Some((i, label)) = l.iter().enumerate().find(|(i, x)| l[..*i].contains(x)) {
+                return Err(format!(
+                    "labels lists {label:?} twice (values {} and {}): each value needs its own",
+                    l.iter().position(|x| x == label).unwrap_or(0) + 1,
+                    i + 1
+                ));
+            }
+            l.clone()
+        }
         None => values.iter().map(value_label).collect(),
     };
     let name = a.name.clone().unwrap_or_else(|| match &target {
@@ -704,6 +716,13 @@ fn build_axis(
             "axis name {name:?} must be non-empty, without commas or quotes"
         ));
     }
+    if is_result_column(&name) {
+        return Err(format!(
+            "axis name {name:?} is a column sweep.csv already has (case, {}, max_k, rms_k); \
+             choose another",
+            RESULT_COLUMNS.join(", ")
+        ));
+    }
     Ok(Axis {
         name,
         target,
@@ -715,6 +734,27 @@ fn build_axis(
         line: None,
         source,
     })
+}
+
+/// The columns of `sweep.csv` after the case number and the axes (then `max_k` and
+/// `rms_k` for each trial k).
+pub(crate) const RESULT_COLUMNS: [&str; 7] = [
+    "verdict",
+    "trials",
+    "best",
+    "best_trial",
+    "final",
+    "trials_to_10pct",
+    "trials_to_1pct",
+];
+
+/// Whether an axis of this name would repeat one of `sweep.csv`'s own columns.
+fn is_result_column(name: &str) -> bool {
+    let per_trial = ["max_", "rms_"].iter().any(|p| {
+        name.strip_prefix(p)
+            .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
+    });
+    name == "case" || RESULT_COLUMNS.contains(&name) || per_trial
 }
 
 /// Refuses empty grids, and grids too long to make cases of before they are allocated.
