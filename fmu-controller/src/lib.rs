@@ -463,13 +463,15 @@ fmi2_export::export_fmu!(HlcsController);
 mod tests {
     use super::*;
 
-    /// A line controller of 0.2 s, initialised and stepped once, so it holds a table.
+    /// A line controller of 0.2 s, initialised and stepped twice by one step size, so it
+    /// holds a table.
     fn stepped() -> HlcsController {
         let mut c = HlcsController::new();
         c.set_integer(vr::TRAJECTORY, TRAJECTORY_LINE).unwrap();
         c.set_real(vr::DURATION, 0.2).unwrap();
         c.initialize(0.0).unwrap();
         c.do_step(0.0, 1e-3).unwrap();
+        c.do_step(1e-3, 1e-3).unwrap();
         c
     }
 
