@@ -544,3 +544,32 @@ fn scenario_recording_a_trial_twice_or_measuring_a_force_as_a_length() {
         .says(&format!("{}:15:", force.display()))
         .says("metrics.length \"plant.force\": force[1] is in N; the metrics need lengths in m");
 }
+
+#[test]
+fn paper_names_its_bad_options_and_a_missing_fmu_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    fails(
+        &[
+            "paper".as_ref(),
+            "--line-duration".as_ref(),
+            "0".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("--line-duration 0 s is not usable: a trajectory lasts at least 0.01 s");
+    let missing = dir.path().join("nowhere");
+    fails(
+        &[
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            missing.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says_once(&missing.join("CkcmPlant.fmu").display().to_string());
+}

@@ -24,6 +24,7 @@ use std::sync::{Mutex, PoisonError};
 
 use ckcm::{Trajectory, TrajectoryKind};
 use fmi2_import::Fmu;
+use fmi2_md::Shown;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
 use self::cases::{TRAJECTORIES, traj_slug};
@@ -60,8 +61,8 @@ pub struct PaperOptions {
 /// A study failure.
 #[derive(Debug, thiserror::Error)]
 pub enum PaperError {
-    /// An FMU could not be opened.
-    #[error("{fmu}: {message}")]
+    /// An FMU could not be opened; `message` names the file once, itself or by this prefix.
+    #[error("{}", named(fmu, message))]
     Fmu {
         /// The FMU file.
         fmu: PathBuf,
@@ -101,6 +102,16 @@ pub enum PaperError {
     Invalid(String),
 }
 
+/// `message`, prefixed with the FMU's path unless it names the file already.
+fn named(fmu: &std::path::Path, message: &str) -> String {
+    let path = fmu.display().to_string();
+    if message.contains(&path) {
+        message.to_owned()
+    } else {
+        format!("{path}: {message}")
+    }
+}
+
 /// Runs all six cases, then writes the tables, figures and the report.
 pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     if opts.robust_trials < 5 {
@@ -115,10 +126,14 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
             opts.trials
         )));
     }
-    for d in [opts.line_duration, opts.circle_duration] {
+    for (option, d) in [
+        ("--line-duration", opts.line_duration),
+        ("--circle-duration", opts.circle_duration),
+    ] {
         if !(d.is_finite() && d >= 0.01) {
             return Err(PaperError::Invalid(format!(
-                "trajectory duration {d} s is not usable"
+                "{option} {} s is not usable: a trajectory lasts at least 0.01 s",
+                Shown(d)
             )));
         }
     }
