@@ -557,15 +557,17 @@ impl Scenario {
             let mut settings: Vec<Setting> = Vec::new();
             // Which key set each variable: a whole array and one of its elements (or two
             // names of one variable) would both apply, the later silently winning.
-            let mut set_by: Vec<(u32, &Spanned<String>)> = Vec::new();
+            // Value references are unique per base type only: the value's type is the key's
+            // other half.
+            let mut set_by: Vec<((u32, std::mem::Discriminant<Value>), &Spanned<String>)> =
+                Vec::new();
             for (key, value) in &f.parameters {
                 let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) else {
                     continue;
                 };
                 for new in &s {
-                    if let Some((_, first)) =
-                        set_by.iter().find(|(vr, _)| *vr == new.value_reference)
-                    {
+                    let id = (new.value_reference, std::mem::discriminant(&new.value));
+                    if let Some((_, first)) = set_by.iter().find(|(k, _)| *k == id) {
                         cx.keep::<()>(cx.err(
                             key.span(),
                             format!(
@@ -578,7 +580,7 @@ impl Scenario {
                             ),
                         ));
                     }
-                    set_by.push((new.value_reference, key));
+                    set_by.push((id, key));
                 }
                 settings.extend(s);
             }

@@ -165,7 +165,12 @@ impl Plan {
             let new = parse_assignment(md, text)
                 .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?;
             for a in &new {
-                if let Some(i) = starts.iter().position(|s| s.vr == a.vr) {
+                // Value references are unique per base type only.
+                let same = |s: &Assignment| {
+                    s.vr == a.vr
+                        && std::mem::discriminant(&s.value) == std::mem::discriminant(&a.value)
+                };
+                if let Some(i) = starts.iter().position(same) {
                     return Err(SimulateError::Invalid(format!(
                         "--set {text}: {} is already set by --set {}; give each value once",
                         a.name, set_by[i]
