@@ -213,6 +213,9 @@ fn default_home() -> f64 {
 
 pub use crate::variables::Value;
 
+/// A variable as a master addresses it: its value reference and its value's type.
+type VariableKey = (u32, std::mem::Discriminant<Value>);
+
 /// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setting {
@@ -559,8 +562,7 @@ impl Scenario {
             // names of one variable) would both apply, the later silently winning.
             // Value references are unique per base type only: the value's type is the key's
             // other half.
-            let mut set_by: Vec<((u32, std::mem::Discriminant<Value>), &Spanned<String>)> =
-                Vec::new();
+            let mut set_by: Vec<(VariableKey, &Spanned<String>)> = Vec::new();
             for (key, value) in &f.parameters {
                 let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) else {
                     continue;
