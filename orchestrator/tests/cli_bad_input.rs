@@ -53,6 +53,19 @@ impl Failure {
     }
 }
 
+/// `orchestrator run SCENARIO --out OUT`, which must fail without writing OUT.
+fn run_fails(scenario: &Path, out: &Path) -> Failure {
+    fails(
+        &[
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        out,
+    )
+}
+
 /// A scenario running `fmu` alone for 10 ms, written as `dir/<stem>.toml`.
 fn scenario_for(dir: &Path, stem: &str, fmu: &Path) -> PathBuf {
     let path = dir.join(format!("{stem}.toml"));
@@ -81,17 +94,9 @@ fn check_fmu_problem(dir: &Path, fmu: &Path, open_error: &str) {
     fails(&["info".as_ref(), fmu.as_os_str()], &csv).says_once(open_error);
     let scenario = scenario_for(dir, "single", fmu);
     let out = dir.join("run-out");
-    fails(
-        &[
-            "run".as_ref(),
-            scenario.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        &out,
-    )
-    .says(&format!("{}:6: FMU \"unit\"", scenario.display()))
-    .says_once(open_error);
+    run_fails(&scenario, &out)
+        .says(&format!("{}:6: FMU \"unit\"", scenario.display()))
+        .says_once(open_error);
 }
 
 #[test]
@@ -176,20 +181,12 @@ fn a_parameter_set_twice_in_one_fmu_table() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    fails(
-        &[
-            "run".as_ref(),
-            scenario.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        &out,
-    )
-    .says(&format!("{}:9:", scenario.display()))
-    .says(
-        "parameter \"initial_pose[1]\" sets initial_pose[1] again: \"initial_pose\" on line 8 \
+    run_fails(&scenario, &out)
+        .says(&format!("{}:9:", scenario.display()))
+        .says(
+            "parameter \"initial_pose[1]\" sets initial_pose[1] again: \"initial_pose\" on line 8 \
          already sets it; give each value once",
-    );
+        );
 }
 
 #[test]
@@ -306,17 +303,9 @@ fn guid_mismatch_fails_instantiation_with_the_fmus_own_message() {
 
     let scenario = scenario_for(dir.path(), "forged", &fmu);
     let out = dir.path().join("run-out");
-    fails(
-        &[
-            "run".as_ref(),
-            scenario.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        &out,
-    )
-    .says("fmi2Instantiate failed")
-    .says(&fmu_says);
+    run_fails(&scenario, &out)
+        .says("fmi2Instantiate failed")
+        .says(&fmu_says);
 
     // `info` only reads the archive, so it still describes it, showing the forged GUID.
     let output = orchestrator().arg("info").arg(&fmu).output().unwrap();
@@ -339,17 +328,9 @@ fn scenario_naming_an_unknown_variable() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    fails(
-        &[
-            "run".as_ref(),
-            scenario.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        &out,
-    )
-    .says(&format!("{}:9:", scenario.display()))
-    .says("DampedOscillator has no variable \"position\"");
+    run_fails(&scenario, &out)
+        .says(&format!("{}:9:", scenario.display()))
+        .says("DampedOscillator has no variable \"position\"");
 }
 
 #[test]
@@ -362,16 +343,7 @@ fn scenario_with_a_toml_syntax_error() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    fails(
-        &[
-            "run".as_ref(),
-            scenario.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        &out,
-    )
-    .says(&format!("{}:4:", scenario.display()));
+    run_fails(&scenario, &out).says(&format!("{}:4:", scenario.display()));
 }
 
 #[test]
@@ -518,29 +490,18 @@ fn scenario_recording_a_trial_twice_or_measuring_a_force_as_a_length() {
         path
     };
     let out = dir.path().join("out");
-    let run = |scenario: &Path| {
-        fails(
-            &[
-                "run".as_ref(),
-                scenario.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ],
-            &out,
-        )
-    };
     let twice = write(
         "twice",
         "[record]\nvariables = [\"plant.length\"]\ntrials = [1, 2, 1]\n",
     );
-    run(&twice)
+    run_fails(&twice, &out)
         .says(&format!("{}:15:", twice.display()))
         .says("record.trials lists trial 1 twice");
     let force = write(
         "force",
         "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.force\"\n",
     );
-    run(&force)
+    run_fails(&force, &out)
         .says(&format!("{}:15:", force.display()))
         .says("metrics.length \"plant.force\": force[1] is in N; the metrics need lengths in m");
 }

@@ -160,20 +160,25 @@ fn a_new_run_never_destroys_an_existing_campaign() {
     assert!(stderr(&o).contains("already holds files (notes.txt)"));
 }
 
+/// `huge.toml` beside `s`: `s` with 10^8 steps, about 11 GiB for one recorded trial.
+fn huge_scenario(s: &Path) -> PathBuf {
+    let huge = s.with_file_name("huge.toml");
+    std::fs::write(
+        &huge,
+        std::fs::read_to_string(s)
+            .unwrap()
+            .replace("stop_time = 0.5", "stop_time = 1000000"),
+    )
+    .unwrap();
+    huge
+}
+
 #[test]
 fn a_campaign_beyond_the_memory_limit_is_refused_with_the_scenario_line() {
     let tmp = tempfile::tempdir().unwrap();
     let s = scenario(tmp.path(), "");
     let out = tmp.path().join("out");
-    // 10^8 steps of 0.01 s: about 11 GiB for one recorded trial.
-    let huge = tmp.path().join("huge.toml");
-    std::fs::write(
-        &huge,
-        std::fs::read_to_string(&s)
-            .unwrap()
-            .replace("stop_time = 0.5", "stop_time = 1000000"),
-    )
-    .unwrap();
+    let huge = huge_scenario(&s);
     let o = run(&huge, &out, &[]);
     assert!(!o.status.success());
     let err = stderr(&o);
@@ -206,15 +211,7 @@ fn a_campaign_beyond_the_memory_limit_is_refused_with_the_scenario_line() {
 #[test]
 fn a_limit_beyond_what_the_process_can_allocate_is_refused() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = scenario(tmp.path(), "");
-    let huge = tmp.path().join("huge.toml");
-    std::fs::write(
-        &huge,
-        std::fs::read_to_string(&s)
-            .unwrap()
-            .replace("stop_time = 0.5", "stop_time = 1000000"),
-    )
-    .unwrap();
+    let huge = huge_scenario(&scenario(tmp.path(), ""));
     let out = tmp.path().join("out");
     let o = std::process::Command::new("sh")
         .arg("-c")

@@ -64,10 +64,7 @@ fn scenario_values_outside_the_declared_range_or_not_finite_name_file_and_line()
     assert!(err.contains("not a finite number"), "{err}");
     let s = scenario(tmp.path(), "mass = 1e-12", "\"osc.x\"");
     let err = run_fails(tmp.path(), &s);
-    assert!(
-        err.contains("below its declared min = 0.000000001"),
-        "{err}"
-    );
+    assert!(err.contains("below its declared min = 1e-9"), "{err}");
 }
 
 #[test]

@@ -54,6 +54,21 @@ fn setup(dir: &Path, trials: usize) -> PathBuf {
     file
 }
 
+/// `orchestrator sweep SWEEP --out OUT --jobs JOBS`, which must succeed; its stderr.
+fn sweep_succeeds(sweep: &Path, out: &Path, jobs: usize) -> String {
+    let o = orchestrator()
+        .arg("sweep")
+        .arg(sweep)
+        .arg("--out")
+        .arg(out)
+        .args(["--jobs", &jobs.to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    err
+}
+
 /// Every result file of a sweep directory (not the case folders), by relative path.
 fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files = vec![
@@ -89,16 +104,7 @@ fn shards_merge_to_the_plain_run_byte_for_byte() {
     let tmp = tempfile::tempdir().unwrap();
     let sweep = setup(tmp.path(), 3);
     let plain = tmp.path().join("plain");
-    let o = orchestrator()
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&plain)
-        .args(["--jobs", "2"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+    let err = sweep_succeeds(&sweep, &plain, 2);
     // Progress counts the cases finished out of six, whatever order they finish in.
     for count in 1..=6 {
         assert!(err.contains(&format!(" done, {count} of 6 (")), "{err}");
@@ -517,16 +523,7 @@ fn a_failing_case_is_reported_and_counted_and_the_sweep_goes_on() {
     )
     .unwrap();
     let out = tmp.path().join("out");
-    let o = orchestrator()
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&out)
-        .args(["--jobs", "1"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+    let err = sweep_succeeds(&sweep, &out, 1);
     assert!(err.contains("case 0 done, 1 of 2 (50000)"), "{err}");
     assert!(err.contains("case 1 failed: trial 0, t = "), "{err}");
     assert!(
