@@ -160,8 +160,8 @@ struct Sim {
     /// `None` for the external reference inputs.
     trajectory: Option<Trajectory>,
     start_time: f64,
-    /// The trajectory's reference terms for the step size of the last doStep (fetched at the
-    /// first doStep: the step size is not known before).
+    /// The trajectory's reference terms for the step size of the last doStep (fetched at a
+    /// doStep, since the step size is not known before; see [`Sim::fetch_table`]).
     table: Option<Arc<ReferenceTable>>,
     /// The step size of the last doStep that ran without a table: a table is built only for
     /// a step size used twice in a row, so a master that varies its steps does not pay for

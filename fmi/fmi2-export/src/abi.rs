@@ -916,9 +916,9 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 /// identifier and GUID, glue fields, exact length) and restores its payload into a new
 /// snapshot, whose pointer goes to `*state`. Every rejection names what is wrong.
 ///
-/// Unlike fmi2GetFMUstate's, this `FMUstate` is an output only (FMI 2.0 §2.1.8: the
-/// function "constructs a copy of the FMU state and returns" it), so what `*state` held
-/// is never read: a master may pass an uninitialised variable.
+/// Unlike fmi2GetFMUstate's, this `FMUstate` is an output only (FMI 2.0 §2.1.8 has the
+/// function build a new copy of the state and hand back its pointer), so what `*state`
+/// held is never read: a master may pass an uninitialised variable.
 ///
 /// # Safety
 /// See the module's safety contract.
