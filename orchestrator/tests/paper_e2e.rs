@@ -537,3 +537,40 @@ fn resume_refuses_a_different_scenario() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("different scenario"), "{err}");
 }
+
+/// FMUs in a folder whose name holds a quote and a backslash: the generated scenarios quote
+/// the paths as TOML, so they read back as the same files (they once made a TOML error, or
+/// a path with `/` for `\`).
+#[cfg(unix)]
+#[test]
+fn fmus_in_a_folder_with_quotes_and_backslashes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("FMUs \"new\" \\ 2026");
+    std::fs::create_dir(&dir).unwrap();
+    for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
+        std::fs::copy(fmu_dir().join(name), dir.join(name)).unwrap();
+    }
+    let out = tmp.path().join("study");
+    let o = orchestrator()
+        .args(["paper", "--trials", "5", "--robust-trials", "5"])
+        .args([
+            "--line-duration",
+            "0.2",
+            "--circle-duration",
+            "0.2",
+            "--fmu-dir",
+        ])
+        .arg(&dir)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(out.join("line/pid/scenario.toml")).unwrap();
+    let parsed: toml::Table = toml::from_str(&text).unwrap();
+    let fmus = parsed["fmu"].as_array().unwrap();
+    assert_eq!(
+        fmus[1]["path"].as_str(),
+        Some(dir.join("CkcmPlant.fmu").to_str().unwrap())
+    );
+}

@@ -95,13 +95,12 @@ pub fn scenario_toml(opts: &PaperOptions, kind: TrajectoryKind, scheme: Scheme) 
 /// A case as scenario TOML.
 pub fn render(opts: &PaperOptions, spec: &CaseSpec) -> String {
     let duration = duration(opts, spec.kind);
+    // A TOML string as the toml crate quotes it, so that any folder name (quotes,
+    // backslashes) reads back as itself.
     let fmu = |name: &str| {
         let p = opts.fmu_dir.join(name);
-        std::path::absolute(&p)
-            .unwrap_or(p)
-            .display()
-            .to_string()
-            .replace('\\', "/")
+        let absolute = std::path::absolute(&p).unwrap_or(p);
+        toml::Value::String(absolute.display().to_string()).to_string()
     };
     let plant_parameters = if spec.plant_parameters.is_empty() {
         String::new()
@@ -124,7 +123,7 @@ trials = {trials}
 
 [[fmu]]
 name = "controller"
-path = "{controller}"
+path = {controller}
 [fmu.parameters]
 trajectory = "{traj}"
 duration = {duration:?}
@@ -132,7 +131,7 @@ learning = {learning}
 {controller_parameters}
 [[fmu]]
 name = "plant"
-path = "{plant}"
+path = {plant}
 {plant_parameters}
 [[connection]]
 from = "plant.length"
