@@ -303,10 +303,16 @@ fn as_run(scenario: &Scenario, text: &str) -> Result<String, CampaignError> {
         .fmus
         .iter()
         .map(|f| {
-            std::path::absolute(&f.path)
-                .unwrap_or_else(|_| f.path.clone())
-                .to_string_lossy()
-                .into_owned()
+            let absolute = std::path::absolute(&f.path).unwrap_or_else(|_| f.path.clone());
+            if absolute.to_str().is_none() {
+                crate::console!(
+                    "warning: FMU {:?} lies at a path that is not valid UTF-8, which the saved \
+                     scenario.toml (TOML, UTF-8) cannot hold: resume with the original scenario \
+                     file, not with that copy",
+                    f.name
+                );
+            }
+            absolute.to_string_lossy().into_owned()
         })
         .collect();
     let paths: Vec<&str> = paths.iter().map(String::as_str).collect();

@@ -534,3 +534,50 @@ fn paper_names_its_bad_options_and_a_missing_fmu_once() {
     )
     .says_once(&missing.join("CkcmPlant.fmu").display().to_string());
 }
+
+/// FMUs in a folder whose name is not valid UTF-8 (Latin-1 bytes, as on old mounts): TOML
+/// cannot name them, so `paper`, whose scenarios are generated, refuses them by name, and
+/// `run` says that its saved copy of the scenario cannot be resumed from.
+#[cfg(target_os = "linux")]
+#[test]
+fn fmus_in_a_folder_whose_name_is_not_utf8() {
+    use std::os::unix::ffi::OsStrExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join(std::ffi::OsStr::from_bytes(b"caf\xe9"));
+    std::fs::create_dir(&dir).unwrap();
+    for name in ["CkcmPlant", "HlcsController"] {
+        std::fs::copy(built_fmu(name), dir.join(format!("{name}.fmu"))).unwrap();
+    }
+    let out = tmp.path().join("study");
+    fails(
+        &[
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            dir.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("the path is not valid UTF-8, so the study's scenario files cannot name the FMUs");
+
+    let scenario = dir.join("one.toml");
+    std::fs::write(
+        &scenario,
+        "step_size = 0.001\nstop_time = 0.01\n[[fmu]]\nname = \"plant\"\npath = \"CkcmPlant.fmu\"\n",
+    )
+    .unwrap();
+    let o = orchestrator()
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(tmp.path().join("run"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning: FMU \"plant\" lies at a path that is not valid UTF-8"),
+        "{err}"
+    );
+}

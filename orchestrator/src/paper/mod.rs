@@ -137,6 +137,14 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
             )));
         }
     }
+    // The cases' scenarios are TOML, which is UTF-8: they could not name the FMUs.
+    if opts.fmu_dir.to_str().is_none() {
+        return Err(PaperError::Invalid(format!(
+            "--fmu-dir {}: the path is not valid UTF-8, so the study's scenario files cannot \
+             name the FMUs in it; move them to a folder whose name is",
+            opts.fmu_dir.display()
+        )));
+    }
     // Open both FMUs once up front: a missing or broken FMU fails before anything is written.
     for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
         let p = opts.fmu_dir.join(name);

@@ -126,6 +126,16 @@ impl BaseFmus {
                 fmu: joined.clone(),
                 message: e.to_string(),
             })?;
+            // Each case's scenario is TOML, which is UTF-8: it could not name this file.
+            if abs.to_str().is_none() {
+                return Err(SweepError::Fmu {
+                    file: spec.base.clone(),
+                    fmu: abs,
+                    message: "the path is not valid UTF-8, so the cases' scenario files \
+                              cannot name it; move the FMU to a folder whose name is"
+                        .into(),
+                });
+            }
             let fmu = Fmu::open(&abs).map_err(|e| SweepError::Fmu {
                 file: spec.base.clone(),
                 fmu: abs.clone(),
