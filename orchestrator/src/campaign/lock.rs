@@ -113,7 +113,8 @@ fn same_file(_file: &File, path: &Path) -> bool {
     path.exists()
 }
 
-/// `pid 1234 on host "lab-3", since 1764547200 (Unix time)`, from the lock file's text.
+/// `pid 1234 on host "lab-3", since 2025-12-01 00:00:00 UTC`, from the lock file's text
+/// (which keeps Unix seconds).
 fn describe_holder(text: &str) -> String {
     let field = |key: &str| {
         text.lines()
@@ -123,7 +124,16 @@ fn describe_holder(text: &str) -> String {
     match (field("pid"), field("host")) {
         (Some(pid), Some(host)) => {
             let since = field("since")
-                .map(|s| format!(", since {s} (Unix time)"))
+                .map(|s| {
+                    let utc = s
+                        .parse()
+                        .ok()
+                        .and_then(|secs| chrono::DateTime::from_timestamp(secs, 0));
+                    match utc {
+                        Some(t) => format!(", since {}", t.format("%Y-%m-%d %H:%M:%S UTC")),
+                        None => format!(", since {s} (Unix time)"),
+                    }
+                })
                 .unwrap_or_default();
             format!("held by pid {pid} on host {host}{since}")
         }
@@ -167,6 +177,21 @@ mod tests {
         drop(again);
         assert!(dir.join("result.csv").exists());
         assert!(!dir.join(LOCK_FILE).exists());
+    }
+
+    #[test]
+    fn the_holder_is_named_with_its_start_as_a_utc_date() {
+        let text = "pid = 42\nhost = \"lab-3\"\nsince = 1764547200\n";
+        assert_eq!(
+            describe_holder(text),
+            "held by pid 42 on host \"lab-3\", since 2025-12-01 00:00:00 UTC"
+        );
+        // A value that is no time is shown as written.
+        let odd = "pid = 42\nhost = \"lab-3\"\nsince = soon\n";
+        assert_eq!(
+            describe_holder(odd),
+            "held by pid 42 on host \"lab-3\", since soon (Unix time)"
+        );
     }
 
     #[test]
