@@ -149,8 +149,10 @@ pub struct PaperArgs {
 }
 
 /// `analyze`. The update settings come from the scenario's first `[[memory]]` channel
-/// (`[memory.update]`); the options below override them.
+/// (`[memory.update]`); the options below override them. A negative number after an
+/// option is its value (`--lead -1` is refused as a lead, not read as an unknown option).
 #[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
 pub struct AnalyzeArgs {
     /// The scenario file (TOML).
     pub scenario: PathBuf,

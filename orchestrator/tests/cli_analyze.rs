@@ -171,6 +171,12 @@ fn bad_settings_are_named_and_nothing_is_written() {
         (&["--order", "4"][..], "--order needs a cutoff"),
         (&["--gain", "inf"][..], "gain = inf"),
         (&["--gain-scale=-1"][..], "--gain-scale = -1"),
+        // A negative number after an option is its value, not an unknown option.
+        (&["--gain-scale", "-1"][..], "--gain-scale = -1"),
+        (
+            &["--lead", "-1"][..],
+            "invalid value '-1' for '--lead <LEAD>'",
+        ),
         // Five billion poses on the 5 s circle: refused before any is sampled.
         (
             &["--stride", "1e-9"][..],
