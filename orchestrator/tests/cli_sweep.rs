@@ -533,3 +533,35 @@ fn a_failing_case_is_reported_and_counted_and_the_sweep_goes_on() {
     let outcome = fs::read_to_string(out.join("cases/case_0001/outcome.toml")).unwrap();
     assert!(outcome.contains("status = \"failed\""), "{outcome}");
 }
+
+#[test]
+fn a_broken_fmu_of_the_base_is_named_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 1);
+    // The plant replaced by a file that is no archive: the import error names the file
+    // itself, so the sweep's message must not name it a second time.
+    let broken = tmp.path().join("broken.fmu");
+    fs::write(&broken, b"not a zip").unwrap();
+    let base = fs::read_to_string(tmp.path().join("base.toml")).unwrap();
+    let plant = format!("{:?}", built_fmu("CkcmPlant"));
+    fs::write(
+        tmp.path().join("base.toml"),
+        base.replace(&plant, &format!("{broken:?}")),
+    )
+    .unwrap();
+    let o = orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(tmp.path().join("out"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("is not a zip archive"), "{err}");
+    assert_eq!(
+        err.matches(broken.to_str().unwrap()).count(),
+        1,
+        "the path once: {err}"
+    );
+}

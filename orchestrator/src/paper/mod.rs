@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use ckcm::{Trajectory, TrajectoryKind};
-use fmi2_import::Fmu;
+use fmi2_import::{Fmu, ImportError};
 use fmi2_md::Shown;
 
 pub use self::cases::{CaseResult, Scheme, case_dir};
@@ -61,14 +61,9 @@ pub struct PaperOptions {
 /// A study failure.
 #[derive(Debug, thiserror::Error)]
 pub enum PaperError {
-    /// An FMU could not be opened; `message` names the file once, itself or by this prefix.
-    #[error("{}", named(fmu, message))]
-    Fmu {
-        /// The FMU file.
-        fmu: PathBuf,
-        /// Why.
-        message: String,
-    },
+    /// An FMU could not be opened (the import error names the file).
+    #[error(transparent)]
+    Fmu(Box<ImportError>),
     /// A case's scenario, generated in memory from the options, was refused; its problems
     /// without the file and lines of a text the user never sees.
     #[error(
@@ -100,16 +95,6 @@ pub enum PaperError {
     /// Anything else, with its reason.
     #[error("{0}")]
     Invalid(String),
-}
-
-/// `message`, prefixed with the FMU's path unless it names the file already.
-fn named(fmu: &std::path::Path, message: &str) -> String {
-    let path = fmu.display().to_string();
-    if message.contains(&path) {
-        message.to_owned()
-    } else {
-        format!("{path}: {message}")
-    }
 }
 
 /// Runs all six cases, then writes the tables, figures and the report.
@@ -148,10 +133,7 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     // Open both FMUs once up front: a missing or broken FMU fails before anything is written.
     for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
         let p = opts.fmu_dir.join(name);
-        Fmu::open(&p).map_err(|e| PaperError::Fmu {
-            fmu: p.clone(),
-            message: e.to_string(),
-        })?;
+        Fmu::open(&p).map_err(|e| PaperError::Fmu(Box::new(e)))?;
     }
     let cases: Vec<(TrajectoryKind, Scheme)> = TRAJECTORIES
         .into_iter()

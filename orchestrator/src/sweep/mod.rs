@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use fmi2_import::{Fmu, KeptFmus};
+use fmi2_import::{Fmu, ImportError, KeptFmus};
 use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
@@ -53,6 +53,12 @@ pub enum SweepError {
         file: PathBuf,
         fmu: PathBuf,
         message: String,
+    },
+    /// Opening an FMU failed; the import error names the file.
+    #[error("{}: {source}", file.display())]
+    Open {
+        file: PathBuf,
+        source: Box<ImportError>,
     },
     #[error("{}: {message}", dir.display())]
     Dir { dir: PathBuf, message: String },
@@ -136,10 +142,9 @@ impl BaseFmus {
                         .into(),
                 });
             }
-            let fmu = Fmu::open(&abs).map_err(|e| SweepError::Fmu {
+            let fmu = Fmu::open(&abs).map_err(|e| SweepError::Open {
                 file: spec.base.clone(),
-                fmu: abs.clone(),
-                message: e.to_string(),
+                source: Box::new(e),
             })?;
             fmus.push((name.to_string(), abs, fmu.model_description().clone()));
         }
@@ -487,10 +492,9 @@ fn run_case(
     let dir = case_dir(out, i);
     let mut fmus = Vec::with_capacity(scenario.fmus.len());
     for (slot, f) in scenario.fmus.iter().enumerate() {
-        fmus.push(kept.open(slot, &f.path).map_err(|e| SweepError::Fmu {
+        fmus.push(kept.open(slot, &f.path).map_err(|e| SweepError::Open {
             file: spec.source.clone(),
-            fmu: f.path.clone(),
-            message: e.to_string(),
+            source: Box::new(e),
         })?);
     }
     let copts = CampaignOptions {
