@@ -11,7 +11,9 @@ use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2_import::Fmu;
 use fmi2_md::{Causality, VarType};
 
-use crate::variables::{Literal, check_value, convert, resolve, settable};
+use crate::variables::{
+    Literal, VariableKey, check_value, convert, resolve, settable, variable_key,
+};
 use fmi2_md::{ModelDescription, Shown, VariableKind};
 use serde::Deserialize;
 use toml::Spanned;
@@ -213,9 +215,6 @@ fn default_home() -> f64 {
 
 pub use crate::variables::Value;
 
-/// A variable as a master addresses it: its value reference and its value's type.
-type VariableKey = (u32, std::mem::Discriminant<Value>);
-
 /// One parameter (or input start value) assignment, made before every trial.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setting {
@@ -390,6 +389,16 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
+/// The first item of `items` that an earlier one equals: (the earlier index, its own).
+pub(crate) fn first_repeat<T: PartialEq>(items: &[T]) -> Option<(usize, usize)> {
+    (1..items.len()).find_map(|j| {
+        items[..j]
+            .iter()
+            .position(|x| *x == items[j])
+            .map(|i| (i, j))
+    })
+}
+
 struct Ctx<'a> {
     file: &'a Path,
     text: &'a str,
@@ -560,15 +569,13 @@ impl Scenario {
             let mut settings: Vec<Setting> = Vec::new();
             // Which key set each variable: a whole array and one of its elements (or two
             // names of one variable) would both apply, the later silently winning.
-            // Value references are unique per base type only: the value's type is the key's
-            // other half.
             let mut set_by: Vec<(VariableKey, &Spanned<String>)> = Vec::new();
             for (key, value) in &f.parameters {
                 let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) else {
                     continue;
                 };
                 for new in &s {
-                    let id = (new.value_reference, std::mem::discriminant(&new.value));
+                    let id = variable_key(new.value_reference, &new.value);
                     if let Some((_, first)) = set_by.iter().find(|(k, _)| *k == id) {
                         cx.keep::<()>(cx.err(
                             key.span(),
@@ -728,12 +735,8 @@ impl Scenario {
                         ),
                     ));
                 }
-                let listed = t.get_ref();
-                if let Some(twice) = listed
-                    .iter()
-                    .enumerate()
-                    .find_map(|(i, k)| listed[..i].contains(k).then_some(k))
-                {
+                if let Some((_, j)) = first_repeat(t.get_ref()) {
+                    let twice = t.get_ref()[j];
                     cx.keep::<()>(
                         cx.err(t.span(), format!("record.trials lists trial {twice} twice")),
                     );

@@ -18,7 +18,7 @@ use crate::master::STATUS_CATEGORIES;
 use crate::output::{Recording, seconds};
 use crate::variables::{
     Literal, Value, causality_phrase, check_value, convert, no_such_variable, resolve, set_value,
-    settable,
+    settable, variable_key,
 };
 
 /// Stop time when neither the options nor the DefaultExperiment give one.
@@ -165,12 +165,11 @@ impl Plan {
             let new = parse_assignment(md, text)
                 .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?;
             for a in &new {
-                // Value references are unique per base type only.
-                let same = |s: &Assignment| {
-                    s.vr == a.vr
-                        && std::mem::discriminant(&s.value) == std::mem::discriminant(&a.value)
-                };
-                if let Some(i) = starts.iter().position(same) {
+                let key = variable_key(a.vr, &a.value);
+                if let Some(i) = starts
+                    .iter()
+                    .position(|s| variable_key(s.vr, &s.value) == key)
+                {
                     return Err(SimulateError::Invalid(format!(
                         "--set {text}: {} is already set by --set {}; give each value once",
                         a.name, set_by[i]

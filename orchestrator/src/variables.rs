@@ -17,6 +17,16 @@ pub enum Value {
     String(String),
 }
 
+/// A variable as a master addresses it, for telling whether two assignments set the same
+/// one: value references are unique per base type only, so the value's type is the other
+/// half (Integer and Enumeration share one, as they share fmi2SetInteger).
+pub type VariableKey = (u32, std::mem::Discriminant<Value>);
+
+/// The [`VariableKey`] of the variable `vr` given `value`.
+pub fn variable_key(vr: u32, value: &Value) -> VariableKey {
+    (vr, std::mem::discriminant(value))
+}
+
 /// A value as a user wrote it, before it is converted to a variable's type.
 #[derive(Debug, Clone, Copy)]
 pub enum Literal<'a> {

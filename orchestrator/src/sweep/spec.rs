@@ -12,7 +12,7 @@ use rand_distr::{Distribution, Normal, Uniform};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scenario::line_of;
+use crate::scenario::{first_repeat, line_of};
 
 /// A sweep-file problem: file, line (when known) and message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -524,7 +524,7 @@ fn build_axis(
                 .map(|p| split_target(p, fmus))
                 .collect::<Result<_, _>>()?;
             // A scaled parameter listed twice would be scaled twice.
-            if let Some(k) = (1..ps.len()).find(|&k| ps[..k].contains(&ps[k])) {
+            if let Some((_, k)) = first_repeat(&ps) {
                 return Err(format!("{:?} is listed twice", a.parameters[k]));
             }
             Target::Parameters(ps)
@@ -692,11 +692,12 @@ fn build_axis(
             return Err(format!("{} labels for {} values", l.len(), values.len()));
         }
         Some(l) => {
-            if let Some((i, label)) = l.iter().enumerate().find(|(i, x)| l[..*i].contains(x)) {
+            if let Some((i, j)) = first_repeat(l) {
                 return Err(format!(
-                    "labels lists {label:?} twice (values {} and {}): each value needs its own",
-                    l.iter().position(|x| x == label).unwrap_or(0) + 1,
-                    i + 1
+                    "labels lists {:?} twice (values {} and {}): each value needs its own",
+                    l[j],
+                    i + 1,
+                    j + 1
                 ));
             }
             l.clone()
