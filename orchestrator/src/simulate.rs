@@ -17,8 +17,8 @@ use fmi2_md::{ModelDescription, ScalarVariable, Shown, VariableKind};
 use crate::master::STATUS_CATEGORIES;
 use crate::output::{Recording, seconds};
 use crate::variables::{
-    Literal, Value, causality_phrase, check_value, convert, no_such_variable, resolve, set_value,
-    settable, variable_key,
+    Literal, Value, VariableKey, causality_phrase, check_value, convert, no_such_variable, resolve,
+    set_value, settable, variable_key,
 };
 
 /// Stop time when neither the options nor the DefaultExperiment give one.
@@ -160,23 +160,20 @@ impl Plan {
     fn new(args: &SimulateOptions, md: &ModelDescription) -> Result<Plan> {
         let mut starts: Vec<Assignment> = Vec::new();
         // Which --set gave each variable: a second one would silently win.
-        let mut set_by: Vec<&str> = Vec::new();
+        let mut set_by: Vec<(VariableKey, &str)> = Vec::new();
         for text in &args.set {
             let new = parse_assignment(md, text)
                 .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?;
             for a in &new {
                 let key = variable_key(a.vr, &a.value);
-                if let Some(i) = starts
-                    .iter()
-                    .position(|s| variable_key(s.vr, &s.value) == key)
-                {
+                if let Some((_, first)) = set_by.iter().find(|(k, _)| *k == key) {
                     return Err(SimulateError::Invalid(format!(
-                        "--set {text}: {} is already set by --set {}; give each value once",
-                        a.name, set_by[i]
+                        "--set {text}: {} is already set by --set {first}; give each value once",
+                        a.name
                     )));
                 }
+                set_by.push((key, text));
             }
-            set_by.extend(std::iter::repeat_n(text.as_str(), new.len()));
             starts.extend(new);
         }
         let experiment = md.default_experiment.clone().unwrap_or_default();
