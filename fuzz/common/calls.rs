@@ -1,7 +1,8 @@
 //! Random sequences of FMI calls through `fmi2-import` on a packaged FMU (built by
 //! `cargo xtask fmu`), each input a fresh instance: calls in any order, value references
 //! declared or not, NaN and infinite values, odd step sizes, FMU states saved, restored,
-//! serialized with flipped bytes. Every call returns a status; fmi2Fatal (the glue's answer
+//! serialized with flipped bytes, strings, input and output derivatives, status queries.
+//! Every call returns a status; fmi2Fatal (the glue's answer
 //! to a panic) is a finding, as is a NaN or infinity read with fmi2OK, a crash or a hang.
 //!
 //! The FMU's own code is not instrumented (it is a separate library), so this target steers
@@ -42,11 +43,13 @@ fn real(u: &mut Unstructured) -> Result<f64> {
     })
 }
 
+/// Up to eight value references, mostly declared ones of one type (any number where the
+/// model declares none of it).
 fn vrs(u: &mut Unstructured, declared: &[u32]) -> Result<Vec<u32>> {
     let n = u.int_in_range(0..=8)?;
     (0..n)
         .map(|_| {
-            Ok(if u.ratio(1, 8)? {
+            Ok(if declared.is_empty() || u.ratio(1, 8)? {
                 u.arbitrary()?
             } else {
                 *u.choose(declared)?
@@ -69,6 +72,7 @@ fn session(fmu: &Fmu, u: &mut Unstructured) -> Result<()> {
         of(VarType::Integer),
         of(VarType::Boolean),
     );
+    let strings = of(VarType::String);
     let integers: Vec<u32> = integers
         .into_iter()
         .chain(of(VarType::Enumeration))
@@ -80,7 +84,7 @@ fn session(fmu: &Fmu, u: &mut Unstructured) -> Result<()> {
     let mut states = Vec::new();
     let mut t = 0.0;
     for _ in 0..u.int_in_range(0..=64)? {
-        match u.int_in_range(0..=15)? {
+        match u.int_in_range(0..=18)? {
             0 => {
                 let tol = if u.arbitrary()? { Some(real(u)?) } else { None };
                 let start = if u.arbitrary()? { 0.0 } else { real(u)? };
@@ -184,6 +188,45 @@ fn session(fmu: &Fmu, u: &mut Unstructured) -> Result<()> {
                     inst.get_directional_derivative(&unknowns, &knowns, &dv, &mut out),
                     "fmi2GetDirectionalDerivative",
                 );
+            }
+            15 => {
+                let v = vrs(u, &reals)?;
+                let orders: Vec<i32> = v
+                    .iter()
+                    .map(|_| u.int_in_range(-1..=3))
+                    .collect::<Result<_>>()?;
+                if u.arbitrary()? {
+                    let x: Vec<f64> = v.iter().map(|_| real(u)).collect::<Result<_>>()?;
+                    checked(
+                        inst.set_real_input_derivatives(&v, &orders, &x),
+                        "fmi2SetRealInputDerivatives",
+                    );
+                } else {
+                    let mut x = vec![0.0; v.len()];
+                    checked(
+                        inst.get_real_output_derivatives(&v, &orders, &mut x),
+                        "fmi2GetRealOutputDerivatives",
+                    );
+                }
+            }
+            16 => {
+                let v = vrs(u, &strings)?;
+                if u.arbitrary()? {
+                    let texts = ["", "line", "x\u{1b}[31m", "\u{fffd}"];
+                    let x: Vec<&str> = v
+                        .iter()
+                        .map(|_| u.choose(&texts).copied())
+                        .collect::<Result<_>>()?;
+                    checked(inst.set_string(&v, &x), "fmi2SetString");
+                } else {
+                    let _ = inst.get_string(&v);
+                }
+            }
+            17 => {
+                checked(inst.cancel_step(), "fmi2CancelStep");
+                let _ = inst.integer_status(u.arbitrary()?);
+                let _ = inst.pending_status();
+                let _ = inst.is_terminated();
             }
             _ => {
                 let all = ["logAll", "logError", "logStatusError", "nonsense", ""];
