@@ -161,20 +161,30 @@ impl Plan {
         let mut starts: Vec<Assignment> = Vec::new();
         // Which --set gave each variable: a second one would silently win.
         let mut set_by: Vec<(VariableKey, &str)> = Vec::new();
+        // Every bad --set, one per line, as a scenario file lists all its problems.
+        let mut problems: Vec<String> = Vec::new();
         for text in &args.set {
-            let new = parse_assignment(md, text)
-                .map_err(|e| SimulateError::Invalid(format!("--set {text}: {e}")))?;
+            let new = match parse_assignment(md, text) {
+                Ok(new) => new,
+                Err(e) => {
+                    problems.push(format!("--set {text}: {e}"));
+                    continue;
+                }
+            };
             for a in &new {
                 let key = variable_key(a.vr, &a.value);
-                if let Some((_, first)) = set_by.iter().find(|(k, _)| *k == key) {
-                    return Err(SimulateError::Invalid(format!(
+                match set_by.iter().find(|(k, _)| *k == key) {
+                    Some((_, first)) => problems.push(format!(
                         "--set {text}: {} is already set by --set {first}; give each value once",
                         a.name
-                    )));
+                    )),
+                    None => set_by.push((key, text)),
                 }
-                set_by.push((key, text));
             }
             starts.extend(new);
+        }
+        if !problems.is_empty() {
+            return Err(SimulateError::Invalid(problems.join("\n")));
         }
         let experiment = md.default_experiment.clone().unwrap_or_default();
         let start = args.start_time.or(experiment.start_time).unwrap_or(0.0);

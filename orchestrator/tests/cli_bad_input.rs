@@ -453,6 +453,27 @@ fn simulate_given_one_variable_twice() {
         &csv,
     )
     .says("--set mass=2: mass is already set by --set mass=1; give each value once");
+    // Several bad values: every one is named, not only the first.
+    fails(
+        &[
+            "simulate".as_ref(),
+            fmu.as_os_str(),
+            "--set".as_ref(),
+            "nosuchvar=1".as_ref(),
+            "--set".as_ref(),
+            "mass=1".as_ref(),
+            "--set".as_ref(),
+            "mass=nan".as_ref(),
+            "--set".as_ref(),
+            "mass=2".as_ref(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says("--set nosuchvar=1: model")
+    .says("--set mass=nan: ")
+    .says("--set mass=2: mass is already set by --set mass=1; give each value once");
     // One variable recorded twice: two columns of one name.
     fails(
         &[
