@@ -389,6 +389,22 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
+/// The TOML reader's message for `e`, with a date or time where a number or string belongs
+/// called what it is: the reader represents it as a table internally and says
+/// "invalid type: map".
+pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
+    let message = e.message();
+    let is_datetime = e
+        .span()
+        .and_then(|span| text.get(span))
+        .is_some_and(|value| value.trim().parse::<toml::value::Datetime>().is_ok());
+    if is_datetime {
+        message.replacen("invalid type: map", "invalid type: a date or time", 1)
+    } else {
+        message.to_string()
+    }
+}
+
 /// The first item of `items` that an earlier one equals: (the earlier index, its own).
 pub(crate) fn first_repeat<T: PartialEq>(items: &[T]) -> Option<(usize, usize)> {
     (1..items.len()).find_map(|j| {
@@ -480,7 +496,11 @@ impl Scenario {
             problems: Default::default(),
         };
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
-            ScenarioError::new(file, e.span().map(|s| line_of(text, s.start)), e.message())
+            ScenarioError::new(
+                file,
+                e.span().map(|s| line_of(text, s.start)),
+                toml_message(&e, text),
+            )
         })?;
         let h = *raw.step_size.get_ref();
         if !(h.is_finite() && h > 0.0) {

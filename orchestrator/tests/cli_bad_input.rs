@@ -347,6 +347,23 @@ fn scenario_with_a_toml_syntax_error() {
 }
 
 #[test]
+fn a_date_where_a_number_belongs_is_called_a_date() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("dated.toml");
+    let out = dir.path().join("out");
+    for value in ["1979-05-27", "07:32:00", "1979-05-27T07:32:00Z"] {
+        std::fs::write(
+            &scenario,
+            format!("step_size = 0.001\nstop_time = 1.0\ntrials = {value}\n"),
+        )
+        .unwrap();
+        run_fails(&scenario, &out)
+            .says(&format!("{}:3:", scenario.display()))
+            .says("invalid type: a date or time, expected usize");
+    }
+}
+
+#[test]
 fn simulate_setting_an_unknown_variable() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("result.csv");

@@ -12,7 +12,7 @@ use rand_distr::{Distribution, Normal, Uniform};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scenario::{first_repeat, line_of};
+use crate::scenario::{first_repeat, line_of, toml_message};
 
 /// A sweep-file problem: file, line (when known) and message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -194,7 +194,7 @@ impl SweepSpec {
         let raw: RawSweep = toml::from_str(text).map_err(|e| SweepSpecError {
             file: file.to_path_buf(),
             line: e.span().map(|s| line_of(text, s.start)),
-            message: e.message().to_string(),
+            message: toml_message(&e, text),
         })?;
         let base = file
             .parent()
