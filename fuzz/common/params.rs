@@ -3,9 +3,13 @@
 //! sees them), initialization, steps of varied sizes, tunable parameters and inputs changed
 //! between steps. Every call either succeeds or returns an error; after a success every
 //! Real output is finite. A panic, a hang or a huge allocation is a finding.
+#[path = "outputs.rs"]
+mod outputs;
+
 use fmi2_md::{Causality, VarType, Variability};
 use fmu_core::{Model, VarSpec};
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
+use outputs::outputs_finite;
 
 /// A value for `spec`: its bounds, its current value scaled, small and large magnitudes,
 /// or any bits at all (NaN and infinities included; `set_real` must refuse those).
@@ -62,15 +66,6 @@ fn set<M: Model>(m: &mut M, spec: &VarSpec, u: &mut Unstructured) -> Result<()> 
 fn trace(what: std::fmt::Arguments) {
     if std::env::var_os("FUZZ_TRACE").is_some() {
         eprintln!("{what}");
-    }
-}
-
-fn outputs_finite<M: Model>(m: &M, when: &str) {
-    for spec in M::VARIABLES {
-        if spec.var_type == VarType::Real && spec.causality == Causality::Output {
-            let x = m.get_real(spec.value_reference);
-            assert!(x.is_finite(), "{} = {x} {when}", spec.name);
-        }
     }
 }
 
