@@ -25,14 +25,16 @@
 //! The arguments are those of the FMI 2.0 C function: the component is NULL or a pointer
 //! returned by [`instantiate`] and not yet freed, used by one thread at a time; each
 //! array pointer is NULL or valid for the length passed with it; each pointer to a
-//! single value is NULL or valid for it; strings are NULL or NUL-terminated.
+//! single value is NULL or valid for it; strings are NULL or NUL-terminated. An FMU state
+//! (`fmi2FMUstate`) may hold any value, since only one this library handed out and has not
+//! freed is ever read (see `snapshot::LIVE`), and is used by one thread at a time.
 
 use std::ffi::{CStr, c_char, c_void};
 use std::panic::{self, AssertUnwindSafe};
 use std::ptr;
 
 use crate::instance::{Access, Failure, Instance, LogSink, Outcome};
-use crate::snapshot::{DecodeError, Snapshot};
+use crate::snapshot::{DecodeError, NotOurs, Snapshot};
 use crate::state::{FmiState, Function};
 use fmi2_sys::{
     FMI_VERSION, FMI2_CO_SIMULATION, FMI2_FALSE, FMI2_TRUE, Fmi2Boolean, Fmi2Byte,
@@ -344,6 +346,9 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     // A panicking Drop in the model must not unwind into the master; the memory is then
     // leaked, the only safe option once a destructor has failed.
     let _ = panic::catch_unwind(AssertUnwindSafe(move || drop(boxed)));
+    // SAFETY: `c` was an instance of `M`, now freed; the master holds no reference into
+    // its FMU states during this call (module contract).
+    let _ = panic::catch_unwind(|| unsafe { Snapshot::<M>::free_owned_by(c as usize) });
 }
 
 /// fmi2SetDebugLogging: `nCategories = 0` switches every category of
@@ -754,11 +759,27 @@ pub unsafe fn set_string<M: Model>(
 // FMU state
 // ---------------------------------------------------------------------------------------
 
-/// The snapshot behind an `fmi2FMUstate` argument; NULL and foreign pointers refused.
+/// The message for an `fmi2FMUstate` argument `what` that is not a live snapshot of `M`.
+fn not_ours<M: Model>(why: NotOurs, what: &str) -> Failure {
+    Failure::error(match why {
+        NotOurs::NotLive => format!(
+            "{what} is not a live FMU state of this FMU: fmi2GetFMUstate or \
+             fmi2DeSerializeFMUstate never returned it, or it has been freed (by \
+             fmi2FreeFMUstate, or by fmi2FreeInstance of the instance that allocated it)"
+        ),
+        NotOurs::OtherModel => format!(
+            "{what} is not an FMU state of this model ({}, GUID {})",
+            M::MODEL_IDENTIFIER,
+            M::GUID
+        ),
+    })
+}
+
+/// The snapshot behind an `fmi2FMUstate` argument; NULL, freed and foreign pointers
+/// refused.
 ///
 /// # Safety
-/// `p` is NULL or an FMU state obtained from an FMU and not yet freed, not otherwise
-/// referenced during the call.
+/// As [`Snapshot::from_ptr`]: the snapshot is not otherwise referenced during the call.
 unsafe fn snapshot_arg<'a, M: Model>(
     p: Fmi2FmuState,
     what: &str,
@@ -767,26 +788,22 @@ unsafe fn snapshot_arg<'a, M: Model>(
         return Err(Failure::error(format!("argument {what} is NULL")));
     }
     // SAFETY: forwarded contract of this function.
-    unsafe { Snapshot::<M>::from_ptr(p) }.ok_or_else(|| {
-        Failure::error(format!(
-            "{what} is not an FMU state of this model ({}, GUID {})",
-            M::MODEL_IDENTIFIER,
-            M::GUID
-        ))
-    })
+    unsafe { Snapshot::<M>::from_ptr(p) }.map_err(|why| not_ours::<M>(why, what))
 }
 
-/// Stores `snap` into `*slot`: a new allocation if `*slot` is NULL, else overwriting the
-/// snapshot it points to (which must be one of this model's).
+/// Stores `snap` into `*slot`: a new allocation, owned by the instance at `owner`, if
+/// `*slot` is NULL, else overwriting the snapshot it points to (which must be a live one
+/// of this model's).
 ///
 /// # Safety
-/// `*slot` is NULL or an FMU state as in [`snapshot_arg`].
+/// As [`snapshot_arg`] for `*slot`.
 unsafe fn store_snapshot<M: Model>(
     slot: &mut Fmi2FmuState,
     snap: Snapshot<M>,
+    owner: Fmi2Component,
 ) -> Result<(), Failure> {
     if slot.is_null() {
-        *slot = Box::into_raw(Box::new(snap)).cast::<c_void>();
+        *slot = snap.into_raw(owner as usize);
     } else {
         // SAFETY: forwarded contract of this function.
         *unsafe { snapshot_arg::<M>(*slot, "*FMUstate") }? = snap;
@@ -795,29 +812,29 @@ unsafe fn store_snapshot<M: Model>(
 }
 
 /// fmi2GetFMUstate: a snapshot of the model and the glue bookkeeping (FMI state, times,
-/// first step size, status flags) into `*state`, allocated if `*state` is NULL, else
-/// overwriting that snapshot.
+/// first step size, status flags) into `*state`, allocated if `*state` is NULL (and freed
+/// with this instance unless the master frees it first), else overwriting that snapshot.
 ///
 /// # Safety
-/// See the module's safety contract; `*state` is NULL or an FMU state of this FMU.
+/// See the module's safety contract.
 pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
         // SAFETY: NULL or valid for writing one pointer (module contract).
         let slot = unsafe { out_ref(state, "FMUstate") }?;
         let snap = Snapshot::new(inst.model.clone(), inst.glue);
-        // SAFETY: `*slot` is NULL or an FMU state (this function's contract).
-        unsafe { store_snapshot(slot, snap) }?;
+        // SAFETY: the module contract (FMU states are used by one thread at a time).
+        unsafe { store_snapshot(slot, snap, c) }?;
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.
     unsafe { guard(c, Function::GetFmuState, body) }
 }
 
-/// fmi2SetFMUstate: restores a snapshot of this model (NULL or foreign refused),
+/// fmi2SetFMUstate: restores a snapshot of this model (NULL, freed or foreign refused),
 /// including the FMI state it was taken in.
 ///
 /// # Safety
-/// See the module's safety contract; `state` is NULL or an FMU state not yet freed.
+/// See the module's safety contract.
 pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
         // SAFETY: NULL or an FMU state (this function's contract).
@@ -838,11 +855,11 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
     unsafe { guard(c, Function::SetFmuState, body) }
 }
 
-/// fmi2FreeFMUstate: frees `*state` and sets it to NULL (`*state` NULL: no-op).
+/// fmi2FreeFMUstate: frees `*state` and sets it to NULL (`*state` NULL: no-op). Any
+/// instance of the model may free it; one already freed is an fmi2Error, not a double free.
 ///
 /// # Safety
-/// See the module's safety contract; `*state` is NULL or an FMU state not yet freed,
-/// which the master gives up with this call.
+/// See the module's safety contract.
 pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
     let body = |_: &mut Instance<M>| {
         // SAFETY: NULL or valid for one pointer (module contract).
@@ -850,11 +867,9 @@ pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuStat
         if slot.is_null() {
             return Ok(Status::Ok);
         }
-        // SAFETY: `*slot` is an FMU state (this function's contract).
-        unsafe { snapshot_arg::<M>(*slot, "*FMUstate") }?.invalidate();
-        // SAFETY: the tag proved `*slot` came from `Box::into_raw` of a `Snapshot<M>`;
-        // the reference above is no longer used.
-        drop(unsafe { Box::from_raw(slot.cast::<Snapshot<M>>()) });
+        // SAFETY: the module contract (FMU states are used by one thread at a time), and
+        // no reference to the snapshot is held here.
+        unsafe { Snapshot::<M>::free(*slot) }.map_err(|why| not_ours::<M>(why, "*FMUstate"))?;
         *slot = ptr::null_mut();
         Ok(Status::Ok)
     };
@@ -865,7 +880,7 @@ pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuStat
 /// fmi2SerializedFMUstateSize: the exact byte size [`serialize_fmu_state`] needs.
 ///
 /// # Safety
-/// See the module's safety contract; `state` is NULL or an FMU state not yet freed.
+/// See the module's safety contract.
 pub unsafe fn serialized_fmu_state_size<M: Model>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -886,7 +901,7 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
 /// exactly the size fmi2SerializedFMUstateSize reported.
 ///
 /// # Safety
-/// See the module's safety contract; `state` is NULL or an FMU state not yet freed.
+/// See the module's safety contract.
 pub unsafe fn serialize_fmu_state<M: Model>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -937,7 +952,7 @@ pub unsafe fn de_serialize_fmu_state<M: Model>(
             DecodeError::Invalid(message) => Failure::error(message),
             DecodeError::Model(e) => Failure::from(e),
         })?;
-        *slot = Box::into_raw(Box::new(snap)).cast::<c_void>();
+        *slot = snap.into_raw(c as usize);
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.

@@ -11,8 +11,10 @@
 //! 3. the per-instance state (model, name, callbacks, logging, FMI state, times) and the
 //!    FMU-state snapshots around the model's own saved bytes.
 //!
-//! There are no globals: every piece of state lives in its instance or snapshot, so any
-//! number of instances can run in one process and in different threads.
+//! Every piece of simulation state lives in its instance or snapshot, so any number of
+//! instances can run in one process and in different threads. The one global is the table
+//! of live FMU-state snapshots, which lets fmi2FreeInstance free the states its instance
+//! allocated and refuses a freed state instead of reading it; no step touches it.
 
 #![deny(clippy::undocumented_unsafe_blocks)]
 

@@ -28,6 +28,10 @@
 //! After the checksum, every value is still checked: finite times, declared parameter
 //! ranges (see [`check_ranges`]) and whatever the model's `restore` checks.
 
+use std::collections::BTreeMap;
+use std::ffi::c_void;
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
 use crate::instance::{Glue, SNAPSHOT_MAGIC, Tag};
 use crate::state::FmiState;
 use fmi2_sys::Status;
@@ -81,24 +85,77 @@ impl<M: Model> Snapshot<M> {
         }
     }
 
-    /// The snapshot behind an FMU-state pointer, if it is a live snapshot of `M`.
-    ///
-    /// # Safety
-    /// `p` is NULL, or a pointer obtained from this glue's fmi2GetFMUstate /
-    /// fmi2DeSerializeFMUstate (of this or another FMU: the tag check rejects those)
-    /// that has not been freed, and no other reference to it is live.
-    pub(crate) unsafe fn from_ptr<'a>(p: *mut std::ffi::c_void) -> Option<&'a mut Self> {
-        // SAFETY: forwarded contract of this function.
-        if !unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
-            return None;
-        }
-        // SAFETY: the tag proves `p` came from `Box::into_raw` of a live `Snapshot<M>`.
-        Some(unsafe { &mut *p.cast::<Self>() })
+    /// Moves the snapshot to the heap and hands out its pointer, recorded as allocated by
+    /// the instance at address `owner` (see [`LIVE`]).
+    pub(crate) fn into_raw(self, owner: usize) -> *mut c_void {
+        let p = Box::into_raw(Box::new(self)).cast::<c_void>();
+        live().insert(p as usize, owner);
+        p
     }
 
-    /// Marks the snapshot as freed (see [`Tag::invalidate`]).
-    pub(crate) fn invalidate(&mut self) {
-        self.tag.invalidate();
+    /// The snapshot behind an FMU-state pointer, if it is a live snapshot of `M`.
+    ///
+    /// Any pointer value is accepted: only one that [`LIVE`] lists is read, so a freed,
+    /// made-up or foreign pointer is refused without touching its memory.
+    ///
+    /// # Safety
+    /// No other reference to the snapshot is live during `'a`, and no other thread frees
+    /// it meanwhile (FMI 2.0 lets a master use an FMU state from one thread at a time).
+    pub(crate) unsafe fn from_ptr<'a>(p: *mut c_void) -> Result<&'a mut Self, NotOurs> {
+        if !live().contains_key(&(p as usize)) {
+            return Err(NotOurs::NotLive);
+        }
+        // SAFETY: listed in `LIVE`, so `p` came from `into_raw` of a snapshot of some model
+        // of this library and has not been freed: it points to a readable `Tag`.
+        if !unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
+            return Err(NotOurs::OtherModel);
+        }
+        // SAFETY: the tag proves it is a live `Snapshot<M>`; exclusive per the contract.
+        Ok(unsafe { &mut *p.cast::<Self>() })
+    }
+
+    /// Frees the snapshot behind `p` (checked as [`Self::from_ptr`] does).
+    ///
+    /// # Safety
+    /// As [`Self::from_ptr`], and no reference to the snapshot outlives this call.
+    pub(crate) unsafe fn free(p: *mut c_void) -> Result<(), NotOurs> {
+        // SAFETY: forwarded contract; the reference ends before the box is rebuilt.
+        unsafe { Self::from_ptr(p) }?.tag.invalidate();
+        live().remove(&(p as usize));
+        // SAFETY: a live `Snapshot<M>` from `Box::into_raw` (checked above), now unlisted,
+        // so this is the one place that frees it.
+        drop(unsafe { Box::from_raw(p.cast::<Self>()) });
+        Ok(())
+    }
+
+    /// Frees every snapshot that the instance at address `owner` allocated and the master
+    /// has not freed (fmi2FreeInstance frees all memory its instance allocated).
+    ///
+    /// # Safety
+    /// `owner` is an instance of `M` being freed (so it allocated only `Snapshot<M>`s), and
+    /// no reference to its snapshots is live.
+    pub(crate) unsafe fn free_owned_by(owner: usize) {
+        let owned: Vec<usize> = {
+            let mut live = live();
+            let owned = live
+                .iter()
+                .filter(|&(_, &o)| o == owner)
+                .map(|(&p, _)| p)
+                .collect();
+            live.retain(|_, o| *o != owner);
+            owned
+        };
+        for p in owned {
+            let p = p as *mut c_void;
+            // SAFETY: was listed in `LIVE`, so allocated and not yet freed: a readable tag.
+            if unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
+                // SAFETY: a `Snapshot<M>` from `Box::into_raw`, unlisted above, so freed
+                // only here; its pointer is no longer accepted by any function.
+                let mut snap = unsafe { Box::from_raw(p.cast::<Self>()) };
+                snap.tag.invalidate();
+                drop(snap);
+            }
+        }
     }
 
     /// The serialized form (see the module documentation).
@@ -234,6 +291,33 @@ impl<M: Model> Snapshot<M> {
         check_ranges(&model).map_err(|e| DecodeError::Invalid(format!("the state holds {e}")))?;
         Ok(Self::new(model, glue))
     }
+}
+
+/// Every FMU-state snapshot this library has handed out and not yet freed, by address,
+/// with the address of the instance that allocated it.
+///
+/// The glue's one global. A snapshot is not part of its instance's memory: FMI 2.0 lets a
+/// master restore, serialize or free a state through any instance of the model. Yet
+/// fmi2FreeInstance frees "all the allocated memory" of its instance, states the master
+/// never freed included; and a pointer looked up here before it is read makes a freed,
+/// twice-freed or made-up FMU state an fmi2Error instead of a read of memory the glue
+/// does not own. Locked only by the FMU-state functions and fmi2FreeInstance, never in a
+/// step.
+static LIVE: Mutex<BTreeMap<usize, usize>> = Mutex::new(BTreeMap::new());
+
+/// The live-snapshot table; a panic while it was held cannot have left it inconsistent
+/// (every update is a single insert, remove or retain), so poisoning is ignored.
+fn live() -> MutexGuard<'static, BTreeMap<usize, usize>> {
+    LIVE.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Why an FMU-state pointer was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NotOurs {
+    /// Never handed out by this library, or already freed.
+    NotLive,
+    /// A live snapshot of another model in the same library.
+    OtherModel,
 }
 
 /// Why a serialized state was rejected.

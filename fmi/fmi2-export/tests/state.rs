@@ -5,12 +5,13 @@ mod export_support;
 
 use std::ffi::CString;
 use std::ptr;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use export_support::{Fmu, GUID, Oscillator, Other, fail, logger, state_code_offset, status, vr};
 use fmi2_export::{FmiState, SERIALIZED_MAGIC, abi};
 use fmi2_sys::Status;
-use fmi2_sys::{FMI2_CO_SIMULATION, Fmi2CallbackFunctions, Fmi2FmuState};
-use fmu_core::Model;
+use fmi2_sys::{FMI2_CO_SIMULATION, Fmi2CallbackFunctions, Fmi2Component, Fmi2FmuState};
+use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType, Variability};
 
 /// Steps `n` times from the instance's current time with a force ramp; returns (x, v).
 fn run(fmu: &Fmu, from_step: u32, n: u32) -> Vec<(u64, u64)> {
@@ -514,4 +515,175 @@ fn child_continues_serialized_state() {
         .flat_map(|(x, v)| [x.to_le_bytes(), v.to_le_bytes()].concat())
         .collect();
     std::fs::write(dir.join("result.bin"), result).unwrap();
+}
+
+#[test]
+fn a_freed_or_made_up_state_is_refused_without_being_read() {
+    let fmu = Fmu::initialized("stale");
+    let mut snap = ptr::null_mut();
+    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+    let stale = snap;
+    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+    let not_live = "is not a live FMU state of this FMU";
+    assert_eq!(fmu.set_state(stale), Status::Error);
+    assert!(
+        fmu.log
+            .contains(&format!("fmi2SetFMUstate: FMUstate {not_live}")),
+        "{:?}",
+        fmu.log.messages()
+    );
+    // Freeing it again is an error, not a double free, and the slot keeps its value.
+    let fmu = Fmu::initialized("stale2");
+    let mut again = stale;
+    assert_eq!(fmu.free_state(&mut again), Status::Error);
+    assert_eq!(again, stale);
+    assert!(
+        fmu.log
+            .contains(&format!("fmi2FreeFMUstate: *FMUstate {not_live}"))
+    );
+    // Nor is a made-up address dereferenced (page 1 of the address space is never
+    // mapped, so a read would crash the test).
+    let fmu = Fmu::initialized("made-up");
+    let mut made_up = 0x1000 as Fmi2FmuState;
+    assert_eq!(fmu.set_state(made_up), Status::Error);
+    let fmu = Fmu::initialized("made-up2");
+    assert_eq!(fmu.get_state(&mut made_up), Status::Error);
+    assert_eq!(made_up, 0x1000 as Fmi2FmuState);
+    let fmu = Fmu::initialized("made-up3");
+    assert_eq!(fmu.free_state(&mut made_up), Status::Error);
+}
+
+/// Drops of [`Counted`] models: instances and snapshots, since a snapshot holds a clone.
+static DROPS: AtomicUsize = AtomicUsize::new(0);
+
+/// A model that counts its drops, to see which snapshots fmi2FreeInstance frees.
+#[derive(Debug, PartialEq)]
+struct Counted;
+
+impl Clone for Counted {
+    fn clone(&self) -> Self {
+        Counted
+    }
+}
+
+impl Drop for Counted {
+    fn drop(&mut self) {
+        DROPS.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+impl Model for Counted {
+    const MODEL_IDENTIFIER: &'static str = "Counted";
+    const GUID: &'static str = "{counted-model}";
+    const VARIABLES: &'static [VarSpec] = &[VarSpec {
+        name: "y",
+        value_reference: 0,
+        var_type: VarType::Real,
+        causality: Causality::Output,
+        variability: Variability::Continuous,
+        min: None,
+        max: None,
+    }];
+    const CAN_HANDLE_VARIABLE_STEP: bool = true;
+
+    fn new() -> Self {
+        Counted
+    }
+    fn get_real(&self, _vr: u32) -> f64 {
+        0.0
+    }
+    fn set_real(&mut self, vr: u32, _value: f64) -> ModelResult<()> {
+        Err(ModelError::error(format!(
+            "value reference {vr} is not settable"
+        )))
+    }
+    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
+        Ok(())
+    }
+    fn do_step(&mut self, _t: f64, _h: f64) -> ModelResult<()> {
+        Ok(())
+    }
+    fn save(&self, _out: &mut Vec<u8>) {}
+    fn restore(&mut self, _bytes: &[u8]) -> ModelResult<()> {
+        Ok(())
+    }
+}
+
+/// A new instance of [`Counted`].
+fn counted(name: &str) -> Fmi2Component {
+    let name = CString::new(name).unwrap();
+    let guid = CString::new(Counted::GUID).unwrap();
+    let callbacks = Fmi2CallbackFunctions {
+        logger: logger(),
+        allocate_memory: None,
+        free_memory: None,
+        step_finished: None,
+        component_environment: ptr::null_mut(),
+    };
+    // SAFETY: valid arguments; the callbacks outlive the call (the glue copies them).
+    let c = unsafe {
+        abi::instantiate::<Counted>(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            ptr::null(),
+            &callbacks,
+            0,
+            0,
+        )
+    };
+    assert!(!c.is_null());
+    c
+}
+
+#[test]
+fn free_instance_frees_the_states_its_instance_allocated() {
+    let (a, b) = (counted("a"), counted("b"));
+    // SAFETY: `a` and `b` are live instances of `Counted` until freed below; every slot
+    // and buffer is valid for what is passed with it.
+    unsafe {
+        let get = |c: Fmi2Component| {
+            let mut s = ptr::null_mut();
+            assert_eq!(status(abi::get_fmu_state::<Counted>(c, &mut s)), Status::Ok);
+            s
+        };
+        let (s1, mut s2, s3) = (get(a), get(a), get(a));
+        // A state deserialized through `a` is `a`'s too.
+        let mut size = 0;
+        let st = abi::serialized_fmu_state_size::<Counted>(a, s1, &mut size);
+        assert_eq!(status(st), Status::Ok);
+        let mut bytes = vec![0u8; size];
+        let st = abi::serialize_fmu_state::<Counted>(a, s1, bytes.as_mut_ptr().cast(), size);
+        assert_eq!(status(st), Status::Ok);
+        let mut s4 = ptr::null_mut();
+        let st = abi::de_serialize_fmu_state::<Counted>(a, bytes.as_ptr().cast(), size, &mut s4);
+        assert_eq!(status(st), Status::Ok);
+        let mut t1 = get(b);
+        // Any instance may free a state: `b` frees one of `a`'s, and `a` must not free it
+        // a second time below.
+        assert_eq!(
+            status(abi::free_fmu_state::<Counted>(b, &mut s2)),
+            Status::Ok
+        );
+
+        let before = DROPS.load(Ordering::SeqCst);
+        abi::free_instance::<Counted>(a);
+        // `a`'s model and its three states the master never freed (s1, s3, s4).
+        assert_eq!(DROPS.load(Ordering::SeqCst) - before, 4);
+        for gone in [s1, s3, s4] {
+            assert_eq!(
+                status(abi::set_fmu_state::<Counted>(b, gone)),
+                Status::Error
+            );
+        }
+        // `b`'s own state is untouched.
+        assert_eq!(status(abi::set_fmu_state::<Counted>(b, t1)), Status::Ok);
+        assert_eq!(
+            status(abi::free_fmu_state::<Counted>(b, &mut t1)),
+            Status::Ok
+        );
+        let before = DROPS.load(Ordering::SeqCst);
+        abi::free_instance::<Counted>(b);
+        assert_eq!(DROPS.load(Ordering::SeqCst) - before, 1);
+    }
 }
