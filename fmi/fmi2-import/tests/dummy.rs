@@ -94,6 +94,47 @@ fn an_escaping_entry_is_refused_with_or_without_foreign_binaries() {
     }
 }
 
+/// A symbolic link in the archive that points outside the extraction folder, absolute or
+/// relative, with a file to be written through it: the open fails naming the file, and
+/// nothing lands where the link points.
+#[test]
+fn a_symbolic_link_out_of_the_folder_is_refused() {
+    let outside = tempfile::tempdir().unwrap();
+    let target = outside.path().display().to_string();
+    for link in [target.as_str(), "../..", "../../.."] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dummy_fmu_and(dir.path(), &[]);
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&path)
+            .unwrap();
+        let mut zip = zip::ZipWriter::new_append(file).unwrap();
+        let options = zip::write::SimpleFileOptions::default();
+        zip.add_symlink("resources/link", link, options).unwrap();
+        zip.start_file("resources/link/escaped.txt", options)
+            .unwrap();
+        std::io::Write::write_all(&mut zip, b"out").unwrap();
+        zip.finish().unwrap();
+
+        let err = Fmu::open(&path).unwrap_err();
+        assert!(matches!(err, ImportError::Unpack { .. }), "{link}: {err:?}");
+        assert!(
+            err.to_string().contains(&path.display().to_string()),
+            "{err}"
+        );
+        assert!(!outside.path().join("escaped.txt").exists(), "{link}");
+        let tmp = std::env::temp_dir();
+        for above in tmp.ancestors().take(3) {
+            assert!(
+                !above.join("escaped.txt").exists(),
+                "{link}: {}",
+                above.display()
+            );
+        }
+    }
+}
+
 const FORCES: [u32; 6] = [1, 2, 3, 4, 5, 6];
 const XS: [u32; 6] = [11, 12, 13, 14, 15, 16];
 
