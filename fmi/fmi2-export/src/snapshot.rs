@@ -89,7 +89,7 @@ impl<M: Model> Snapshot<M> {
     /// the instance at address `owner` (see [`LIVE`]).
     pub(crate) fn into_raw(self, owner: usize) -> *mut c_void {
         let p = Box::into_raw(Box::new(self)).cast::<c_void>();
-        live().insert(p as usize, owner);
+        live().insert(p as usize, Live { p, owner });
         p
     }
 
@@ -135,18 +135,17 @@ impl<M: Model> Snapshot<M> {
     /// `owner` is an instance of `M` being freed (so it allocated only `Snapshot<M>`s), and
     /// no reference to its snapshots is live.
     pub(crate) unsafe fn free_owned_by(owner: usize) {
-        let owned: Vec<usize> = {
+        let owned: Vec<*mut c_void> = {
             let mut live = live();
             let owned = live
-                .iter()
-                .filter(|&(_, &o)| o == owner)
-                .map(|(&p, _)| p)
+                .values()
+                .filter(|l| l.owner == owner)
+                .map(|l| l.p)
                 .collect();
-            live.retain(|_, o| *o != owner);
+            live.retain(|_, l| l.owner != owner);
             owned
         };
         for p in owned {
-            let p = p as *mut c_void;
             // SAFETY: was listed in `LIVE`, so allocated and not yet freed: a readable tag.
             if unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
                 // SAFETY: a `Snapshot<M>` from `Box::into_raw`, unlisted above, so freed
@@ -294,7 +293,7 @@ impl<M: Model> Snapshot<M> {
 }
 
 /// Every FMU-state snapshot this library has handed out and not yet freed, by address,
-/// with the address of the instance that allocated it.
+/// with the instance that allocated it.
 ///
 /// The glue's one global. A snapshot is not part of its instance's memory: FMI 2.0 lets a
 /// master restore, serialize or free a state through any instance of the model. Yet
@@ -303,11 +302,24 @@ impl<M: Model> Snapshot<M> {
 /// twice-freed or made-up FMU state an fmi2Error instead of a read of memory the glue
 /// does not own. Locked only by the FMU-state functions and fmi2FreeInstance, never in a
 /// step.
-static LIVE: Mutex<BTreeMap<usize, usize>> = Mutex::new(BTreeMap::new());
+static LIVE: Mutex<BTreeMap<usize, Live>> = Mutex::new(BTreeMap::new());
+
+/// An entry of [`LIVE`]: the snapshot's pointer as handed out (kept as a pointer, not
+/// rebuilt from the address, so that freeing it keeps its provenance) and its instance's
+/// address.
+struct Live {
+    p: *mut c_void,
+    owner: usize,
+}
+
+// SAFETY: `p` is only a key and a handle: the table never dereferences it, and a snapshot
+// is read or freed by one thread at a time (the FMI functions' contract), whichever
+// thread allocated it.
+unsafe impl Send for Live {}
 
 /// The live-snapshot table; a panic while it was held cannot have left it inconsistent
 /// (every update is a single insert, remove or retain), so poisoning is ignored.
-fn live() -> MutexGuard<'static, BTreeMap<usize, usize>> {
+fn live() -> MutexGuard<'static, BTreeMap<usize, Live>> {
     LIVE.lock().unwrap_or_else(PoisonError::into_inner)
 }
 

@@ -2,6 +2,8 @@
 //! fmi2GetInteger) allocate nothing on success after a warm-up step, so an FMU whose model
 //! does not allocate stays allocation-free behind the C ABI. Checked on the test oscillator
 //! with a counting global allocator.
+// The tests' logger is truly C-variadic under Miri (docs/testing.md).
+#![cfg_attr(miri, feature(c_variadic))]
 
 #[path = "support/mod.rs"]
 mod export_support;

@@ -1,5 +1,7 @@
 //! Export glue: instantiation, the legal call sequence, the allowed-states table, NULL
 //! handling, logging and status escalation.
+// The tests' logger is truly C-variadic under Miri (docs/testing.md).
+#![cfg_attr(miri, feature(c_variadic))]
 
 #[path = "support/mod.rs"]
 mod export_support;

@@ -1,17 +1,21 @@
 //! Export glue: FMU-state snapshots and their serialized form.
+// The tests' logger is truly C-variadic under Miri (docs/testing.md).
+#![cfg_attr(miri, feature(c_variadic))]
 
 #[path = "support/mod.rs"]
+#[macro_use]
 mod export_support;
 
-use std::ffi::CString;
 use std::ptr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use export_support::{Fmu, GUID, Oscillator, Other, fail, logger, state_code_offset, status, vr};
+use export_support::{
+    Fmu, GUID, Oscillator, Other, fail, instantiate_quiet, state_code_offset, status, vr,
+};
 use fmi2_export::{FmiState, SERIALIZED_MAGIC, abi};
 use fmi2_sys::Status;
-use fmi2_sys::{FMI2_CO_SIMULATION, Fmi2CallbackFunctions, Fmi2Component, Fmi2FmuState};
-use fmu_core::{Causality, Model, ModelError, ModelResult, VarSpec, VarType, Variability};
+use fmi2_sys::{Fmi2Component, Fmi2FmuState};
+use fmu_core::Model;
 
 /// Steps `n` times from the instance's current time with a force ramp; returns (x, v).
 fn run(fmu: &Fmu, from_step: u32, n: u32) -> Vec<(u64, u64)> {
@@ -90,27 +94,7 @@ fn set_state_rejects_null_and_foreign_snapshots() {
     );
 
     // A snapshot of another model.
-    let name = CString::new("other").unwrap();
-    let guid = CString::new(Other::GUID).unwrap();
-    let callbacks = Fmi2CallbackFunctions {
-        logger: logger(),
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    // SAFETY: valid arguments.
-    let other = unsafe {
-        abi::instantiate::<Other>(
-            name.as_ptr(),
-            FMI2_CO_SIMULATION,
-            guid.as_ptr(),
-            ptr::null(),
-            &callbacks,
-            0,
-            0,
-        )
-    };
+    let other = instantiate_quiet::<Other>("other");
     assert!(!other.is_null());
     let mut foreign = ptr::null_mut();
     // SAFETY: live Other instance, valid slot.
@@ -371,26 +355,9 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
     expect(&sealed(payload), "payload has 88 bytes, expected 96");
 
     // A state of another model, serialized by that model's glue.
-    let name = CString::new("other").unwrap();
-    let oguid = CString::new(Other::GUID).unwrap();
-    let callbacks = Fmi2CallbackFunctions {
-        logger: logger(),
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    // SAFETY: valid arguments; the instance, its snapshot and buffer are released below.
+    let other = instantiate_quiet::<Other>("other");
+    // SAFETY: a live instance; its snapshot and buffer are released below.
     unsafe {
-        let other = abi::instantiate::<Other>(
-            name.as_ptr(),
-            FMI2_CO_SIMULATION,
-            oguid.as_ptr(),
-            ptr::null(),
-            &callbacks,
-            0,
-            0,
-        );
         let mut snap = ptr::null_mut();
         assert_eq!(
             status(abi::get_fmu_state::<Other>(other, &mut snap)),
@@ -557,14 +524,8 @@ fn a_freed_or_made_up_state_is_refused_without_being_read() {
 static DROPS: AtomicUsize = AtomicUsize::new(0);
 
 /// A model that counts its drops, to see which snapshots fmi2FreeInstance frees.
-#[derive(Debug, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 struct Counted;
-
-impl Clone for Counted {
-    fn clone(&self) -> Self {
-        Counted
-    }
-}
 
 impl Drop for Counted {
     fn drop(&mut self) {
@@ -572,73 +533,15 @@ impl Drop for Counted {
     }
 }
 
-impl Model for Counted {
-    const MODEL_IDENTIFIER: &'static str = "Counted";
-    const GUID: &'static str = "{counted-model}";
-    const VARIABLES: &'static [VarSpec] = &[VarSpec {
-        name: "y",
-        value_reference: 0,
-        var_type: VarType::Real,
-        causality: Causality::Output,
-        variability: Variability::Continuous,
-        min: None,
-        max: None,
-    }];
-    const CAN_HANDLE_VARIABLE_STEP: bool = true;
-
-    fn new() -> Self {
-        Counted
-    }
-    fn get_real(&self, _vr: u32) -> f64 {
-        0.0
-    }
-    fn set_real(&mut self, vr: u32, _value: f64) -> ModelResult<()> {
-        Err(ModelError::error(format!(
-            "value reference {vr} is not settable"
-        )))
-    }
-    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
-        Ok(())
-    }
-    fn do_step(&mut self, _t: f64, _h: f64) -> ModelResult<()> {
-        Ok(())
-    }
-    fn save(&self, _out: &mut Vec<u8>) {}
-    fn restore(&mut self, _bytes: &[u8]) -> ModelResult<()> {
-        Ok(())
-    }
-}
-
-/// A new instance of [`Counted`].
-fn counted(name: &str) -> Fmi2Component {
-    let name = CString::new(name).unwrap();
-    let guid = CString::new(Counted::GUID).unwrap();
-    let callbacks = Fmi2CallbackFunctions {
-        logger: logger(),
-        allocate_memory: None,
-        free_memory: None,
-        step_finished: None,
-        component_environment: ptr::null_mut(),
-    };
-    // SAFETY: valid arguments; the callbacks outlive the call (the glue copies them).
-    let c = unsafe {
-        abi::instantiate::<Counted>(
-            name.as_ptr(),
-            FMI2_CO_SIMULATION,
-            guid.as_ptr(),
-            ptr::null(),
-            &callbacks,
-            0,
-            0,
-        )
-    };
-    assert!(!c.is_null());
-    c
-}
+minimal_model!(Counted, "Counted", "{counted-model}", Counted);
 
 #[test]
 fn free_instance_frees_the_states_its_instance_allocated() {
-    let (a, b) = (counted("a"), counted("b"));
+    let (a, b) = (
+        instantiate_quiet::<Counted>("a"),
+        instantiate_quiet::<Counted>("b"),
+    );
+    assert!(!a.is_null() && !b.is_null());
     // SAFETY: `a` and `b` are live instances of `Counted` until freed below; every slot
     // and buffer is valid for what is passed with it.
     unsafe {

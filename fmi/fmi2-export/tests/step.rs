@@ -1,4 +1,6 @@
 //! Export glue: fmi2DoStep time bookkeeping, discarded steps and status queries.
+// The tests' logger is truly C-variadic under Miri (docs/testing.md).
+#![cfg_attr(miri, feature(c_variadic))]
 
 #[path = "support/mod.rs"]
 mod export_support;

@@ -1,4 +1,6 @@
 //! Export glue: value references, types, the FMI 2.0 CS set rules and initialization.
+// The tests' logger is truly C-variadic under Miri (docs/testing.md).
+#![cfg_attr(miri, feature(c_variadic))]
 
 #[path = "support/mod.rs"]
 mod export_support;

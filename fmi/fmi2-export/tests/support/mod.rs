@@ -7,7 +7,7 @@
 
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
 use std::ptr;
-use std::sync::{Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use fmi2_export::abi;
 use fmi2_export::{FmiState, Function};
@@ -412,42 +412,79 @@ impl Model for Oscillator {
     }
 }
 
+/// `impl Model` for a unit-like type with one Real output, `y` (always 0), and nothing
+/// settable: a model whose only use is its identity (`MODEL_IDENTIFIER`, `GUID`).
+#[allow(unused_macros)]
+macro_rules! minimal_model {
+    ($model:ty, $identifier:literal, $guid:literal, $new:expr) => {
+        impl fmu_core::Model for $model {
+            const MODEL_IDENTIFIER: &'static str = $identifier;
+            const GUID: &'static str = $guid;
+            const VARIABLES: &'static [fmu_core::VarSpec] = &[fmu_core::VarSpec {
+                name: "y",
+                value_reference: 0,
+                var_type: fmu_core::VarType::Real,
+                causality: fmu_core::Causality::Output,
+                variability: fmu_core::Variability::Continuous,
+                min: None,
+                max: None,
+            }];
+            const CAN_HANDLE_VARIABLE_STEP: bool = true;
+
+            fn new() -> Self {
+                $new
+            }
+            fn get_real(&self, _vr: u32) -> f64 {
+                0.0
+            }
+            fn set_real(&mut self, vr: u32, _value: f64) -> fmu_core::ModelResult<()> {
+                Err(fmu_core::ModelError::error(format!(
+                    "value reference {vr} is not settable"
+                )))
+            }
+            fn initialize(&mut self, _start_time: f64) -> fmu_core::ModelResult<()> {
+                Ok(())
+            }
+            fn do_step(&mut self, _t: f64, _h: f64) -> fmu_core::ModelResult<()> {
+                Ok(())
+            }
+            fn save(&self, _out: &mut Vec<u8>) {}
+            fn restore(&mut self, _bytes: &[u8]) -> fmu_core::ModelResult<()> {
+                Ok(())
+            }
+        }
+    };
+}
+
 /// A second model with another identity, to feed foreign pointers and buffers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Other;
 
-impl Model for Other {
-    const MODEL_IDENTIFIER: &'static str = "Other";
-    const GUID: &'static str = "{other-model}";
-    const VARIABLES: &'static [VarSpec] = &[var(
-        "y",
-        0,
-        VarType::Real,
-        Causality::Output,
-        Variability::Continuous,
-    )];
-    const CAN_HANDLE_VARIABLE_STEP: bool = true;
+minimal_model!(Other, "Other", "{other-model}", Other);
 
-    fn new() -> Self {
-        Other
-    }
-    fn get_real(&self, _vr: u32) -> f64 {
-        0.0
-    }
-    fn set_real(&mut self, vr: u32, _value: f64) -> ModelResult<()> {
-        Err(ModelError::error(format!(
-            "value reference {vr} is not settable"
-        )))
-    }
-    fn initialize(&mut self, _start_time: f64) -> ModelResult<()> {
-        Ok(())
-    }
-    fn do_step(&mut self, _t: f64, _h: f64) -> ModelResult<()> {
-        Ok(())
-    }
-    fn save(&self, _out: &mut Vec<u8>) {}
-    fn restore(&mut self, _bytes: &[u8]) -> ModelResult<()> {
-        Ok(())
+/// A new instance of model `M` named `name`, with the capturing logger but no capture
+/// (its messages are dropped); NULL only if the glue refuses it, which the caller asserts.
+pub fn instantiate_quiet<M: Model>(name: &str) -> Fmi2Component {
+    let name = CString::new(name).expect("name without NUL");
+    let guid = CString::new(M::GUID).expect("GUID without NUL");
+    let callbacks = Fmi2CallbackFunctions {
+        logger: logger(),
+        allocate_memory: None,
+        free_memory: None,
+        step_finished: None,
+        component_environment: ptr::null_mut(),
+    };
+    // SAFETY: valid arguments; the glue copies the callbacks.
+    unsafe {
+        abi::instantiate::<M>(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            ptr::null(),
+            &callbacks,
+            0,
+            0,
+        )
     }
 }
 
@@ -532,7 +569,31 @@ unsafe extern "C" fn capture_logger(
         .push(record);
 }
 
+/// [`capture_logger`] as a true C-variadic function, for Miri (docs/testing.md): it stops
+/// on the call through a transmuted function type that [`logger`] makes on stable Rust.
+#[cfg(miri)]
+unsafe extern "C" fn capture_logger_variadic(
+    env: *mut c_void,
+    instance: *const c_char,
+    status: c_int,
+    category: *const c_char,
+    format: *const c_char,
+    mut args: ...
+) {
+    // SAFETY: the glue always passes exactly one `char*` vararg ("%s", text).
+    let message: *const c_char = unsafe { args.next_arg() };
+    // SAFETY: the logger's own arguments, forwarded.
+    unsafe { capture_logger(env, instance, status, category, format, message) }
+}
+
+/// The capturing logger under Miri.
+#[cfg(miri)]
+pub fn logger() -> Fmi2CallbackLogger {
+    Some(capture_logger_variadic)
+}
+
 /// [`capture_logger`] as the variadic `fmi2CallbackLogger` type.
+#[cfg(not(miri))]
 pub fn logger() -> Fmi2CallbackLogger {
     type Fixed = unsafe extern "C" fn(
         *mut c_void,
@@ -569,14 +630,14 @@ pub fn instantiate_raw(
     fmu_type: c_int,
     guid: Option<&CStr>,
     logging_on: bool,
-) -> (Fmi2Component, Box<Capture>) {
-    let capture = Box::<Capture>::default();
+) -> (Fmi2Component, Arc<Capture>) {
+    let capture = Arc::<Capture>::default();
     let callbacks = Fmi2CallbackFunctions {
         logger: logger(),
         allocate_memory: None,
         free_memory: None,
         step_finished: None,
-        component_environment: ptr::from_ref::<Capture>(&capture).cast_mut().cast(),
+        component_environment: Arc::as_ptr(&capture).cast_mut().cast(),
     };
     // SAFETY: valid callbacks, NUL-terminated or NULL strings.
     let c = unsafe {
@@ -597,7 +658,7 @@ pub fn instantiate_raw(
 #[derive(Debug)]
 pub struct Fmu {
     pub c: Fmi2Component,
-    pub log: Box<Capture>,
+    pub log: Arc<Capture>,
 }
 
 impl Drop for Fmu {
