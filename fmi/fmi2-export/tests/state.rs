@@ -590,3 +590,39 @@ fn free_instance_frees_the_states_its_instance_allocated() {
         assert_eq!(DROPS.load(Ordering::SeqCst) - before, 1);
     }
 }
+
+/// Instances on several threads save, serialize, restore and free FMU states at once, and
+/// each frees its instance with states still live: the live-state table is shared by all,
+/// so every state must stay its own (each thread checks the time its states restore to).
+#[test]
+fn instances_on_several_threads_keep_their_own_states() {
+    let rounds = if cfg!(miri) { 3 } else { 200 };
+    let threads: Vec<_> = (0..4u32)
+        .map(|k| {
+            std::thread::spawn(move || {
+                let fmu = Fmu::initialized(&format!("thread{k}"));
+                run(&fmu, 0, k + 1);
+                let mut kept = ptr::null_mut();
+                assert_eq!(fmu.get_state(&mut kept), Status::Ok);
+                let expected = fmu.last_successful_time();
+                for _ in 0..rounds {
+                    let mut s = ptr::null_mut();
+                    assert_eq!(fmu.get_state(&mut s), Status::Ok);
+                    let bytes = fmu.serialize(s);
+                    let mut d = ptr::null_mut();
+                    assert_eq!(fmu.deserialize(&bytes, &mut d), Status::Ok);
+                    assert_eq!(fmu.set_state(d), Status::Ok);
+                    assert_eq!(fmu.last_successful_time(), expected);
+                    assert_eq!(fmu.free_state(&mut s), Status::Ok);
+                    assert_eq!(fmu.free_state(&mut d), Status::Ok);
+                }
+                assert_eq!(fmu.set_state(kept), Status::Ok);
+                assert_eq!(fmu.last_successful_time(), expected);
+                // `kept` is left for fmi2FreeInstance (the drop of `fmu`).
+            })
+        })
+        .collect();
+    for t in threads {
+        t.join().unwrap();
+    }
+}
