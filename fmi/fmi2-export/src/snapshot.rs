@@ -89,7 +89,7 @@ impl<M: Model> Snapshot<M> {
     /// the instance at address `owner` (see [`LIVE`]).
     pub(crate) fn into_raw(self, owner: usize) -> *mut c_void {
         let p = Box::into_raw(Box::new(self)).cast::<c_void>();
-        live().insert(p as usize, Live { p, owner });
+        register(p, owner);
         p
     }
 
@@ -102,7 +102,7 @@ impl<M: Model> Snapshot<M> {
     /// No other reference to the snapshot is live during `'a`, and no other thread frees
     /// it meanwhile (FMI 2.0 lets a master use an FMU state from one thread at a time).
     pub(crate) unsafe fn from_ptr<'a>(p: *mut c_void) -> Result<&'a mut Self, NotOurs> {
-        if !live().contains_key(&(p as usize)) {
+        if !is_live(p) {
             return Err(NotOurs::NotLive);
         }
         // SAFETY: listed in `LIVE`, so `p` came from `into_raw` of a snapshot of some model
@@ -118,10 +118,12 @@ impl<M: Model> Snapshot<M> {
     ///
     /// # Safety
     /// As [`Self::from_ptr`], and no reference to the snapshot outlives this call.
+    #[cold]
+    #[inline(never)]
     pub(crate) unsafe fn free(p: *mut c_void) -> Result<(), NotOurs> {
         // SAFETY: forwarded contract; the reference ends before the box is rebuilt.
         unsafe { Self::from_ptr(p) }?.tag.invalidate();
-        live().remove(&(p as usize));
+        unregister(p);
         // SAFETY: a live `Snapshot<M>` from `Box::into_raw` (checked above), now unlisted,
         // so this is the one place that frees it.
         drop(unsafe { Box::from_raw(p.cast::<Self>()) });
@@ -134,18 +136,10 @@ impl<M: Model> Snapshot<M> {
     /// # Safety
     /// `owner` is an instance of `M` being freed (so it allocated only `Snapshot<M>`s), and
     /// no reference to its snapshots is live.
+    #[cold]
+    #[inline(never)]
     pub(crate) unsafe fn free_owned_by(owner: usize) {
-        let owned: Vec<*mut c_void> = {
-            let mut live = live();
-            let owned = live
-                .values()
-                .filter(|l| l.owner == owner)
-                .map(|l| l.p)
-                .collect();
-            live.retain(|_, l| l.owner != owner);
-            owned
-        };
-        for p in owned {
+        for p in take_owned_by(owner) {
             // SAFETY: was listed in `LIVE`, so allocated and not yet freed: a readable tag.
             if unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
                 // SAFETY: a `Snapshot<M>` from `Box::into_raw`, unlisted above, so freed
@@ -321,6 +315,45 @@ unsafe impl Send for Live {}
 /// (every update is a single insert, remove or retain), so poisoning is ignored.
 fn live() -> MutexGuard<'static, BTreeMap<usize, Live>> {
     LIVE.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+// The table's four operations, not generic and out of line, so that each is compiled once
+// and away from the FMI functions a step calls: inlined into the generic ones, the map's
+// code sat between fmi2DoStep and fmi2GetReal in an FMU's library and moved them apart
+// (about 1 % slower steps with the same step code; BENCHMARKS.md, round 41).
+
+/// Records `p` as live, allocated by the instance at address `owner`.
+#[cold]
+#[inline(never)]
+fn register(p: *mut c_void, owner: usize) {
+    live().insert(p as usize, Live { p, owner });
+}
+
+/// Whether `p` is a live snapshot.
+#[inline(never)]
+fn is_live(p: *mut c_void) -> bool {
+    live().contains_key(&(p as usize))
+}
+
+/// Unlists `p`.
+#[cold]
+#[inline(never)]
+fn unregister(p: *mut c_void) {
+    live().remove(&(p as usize));
+}
+
+/// Unlists and returns the snapshots the instance at address `owner` allocated.
+#[cold]
+#[inline(never)]
+fn take_owned_by(owner: usize) -> Vec<*mut c_void> {
+    let mut live = live();
+    let owned = live
+        .values()
+        .filter(|l| l.owner == owner)
+        .map(|l| l.p)
+        .collect();
+    live.retain(|_, l| l.owner != owner);
+    owned
 }
 
 /// Why an FMU-state pointer was refused.
