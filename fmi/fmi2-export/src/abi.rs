@@ -837,7 +837,8 @@ pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState
 /// See the module's safety contract.
 pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
     let body = |inst: &mut Instance<M>| {
-        // SAFETY: NULL or an FMU state (this function's contract).
+        // SAFETY: any pointer value is checked before it is read; the module contract
+        // (FMU states are used by one thread at a time) keeps the reference exclusive.
         let snap = unsafe { snapshot_arg::<M>(state, "FMUstate") }?;
         inst.model = snap.model.clone();
         inst.glue = snap.glue;
@@ -887,7 +888,8 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
     size: *mut usize,
 ) -> Fmi2Status {
     let body = |_: &mut Instance<M>| {
-        // SAFETY: NULL or an FMU state (this function's contract).
+        // SAFETY: any pointer value is checked before it is read; the module contract
+        // (FMU states are used by one thread at a time) keeps the reference exclusive.
         let snap = unsafe { snapshot_arg::<M>(state, "FMUstate") }?;
         // SAFETY: NULL or valid for writing one size_t (module contract).
         *unsafe { out_ref(size, "size") }? = snap.encode().len();
@@ -909,7 +911,8 @@ pub unsafe fn serialize_fmu_state<M: Model>(
     size: usize,
 ) -> Fmi2Status {
     let body = |_: &mut Instance<M>| {
-        // SAFETY: NULL or an FMU state (this function's contract).
+        // SAFETY: any pointer value is checked before it is read; the module contract
+        // (FMU states are used by one thread at a time) keeps the reference exclusive.
         let bytes = unsafe { snapshot_arg::<M>(state, "FMUstate") }?.encode();
         if size != bytes.len() {
             return Err(Failure::error(format!(
