@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2FMUstate
 
 from master import STEP_SIZE, Slave, legs
 
@@ -116,3 +118,62 @@ def test_get_set_and_serialized_state_replay_identically(fmu_dir: Path, name: st
         np.testing.assert_array_equal(run(second, case, N_SAVE, N_END), reference)
     finally:
         second.close()
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_freed_and_foreign_states_are_refused_and_unfreed_ones_go_with_the_instance(
+    fmu_dir: Path, name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    case = CASES[name]
+    owner = Slave(fmu_dir / case.fmu, f"{name}-owner")
+    # Another extraction of the same FMU is another loaded copy of its library.
+    other_copy = Slave(fmu_dir / case.fmu, f"{name}-other-copy")
+    # A second instance in the owner's copy (fmpy loads the same file once).
+    sibling = FMU2Slave(
+        guid=owner.md.guid,
+        unzipDirectory=owner._unzip_dir,
+        modelIdentifier=owner.md.coSimulation.modelIdentifier,
+        instanceName=f"{name}-sibling",
+    )
+    sibling.instantiate()
+    try:
+        owner.start(
+            0.0,
+            N_END * H,
+            reals=case.reals,
+            integers=case.integers,
+            enumerations=case.enumerations,
+        )
+        run(owner, case, 0, 10)
+        # Left for fmi2FreeInstance: the owner's close must free them without a crash.
+        kept = [owner.fmu.getFMUstate() for _ in range(3)]
+        to_free = owner.fmu.getFMUstate()
+        # fmi2FreeFMUstate sets the master's variable to NULL: keep a copy of the pointer.
+        freed = fmi2FMUstate(to_free.value)
+        owner.fmu.freeFMUstate(to_free)
+        assert not to_free
+        capsys.readouterr()
+
+        # A sibling instance may restore the owner's live state, as before.
+        sibling.setFMUstate(kept[0])
+        assert sibling.getReal(owner.vrs(case.outputs)) == owner.fmu.getReal(
+            owner.vrs(case.outputs)
+        )
+        # A freed state is refused, and so is a live state of another loaded copy, whose
+        # table does not list it; neither pointer is read.
+        with pytest.raises(FMICallException):
+            other_copy.fmu.setFMUstate(kept[1])
+        with pytest.raises(FMICallException):
+            sibling.setFMUstate(freed)
+        with pytest.raises(FMICallException):
+            sibling.freeFMUstate(freed)
+        printed = capsys.readouterr().out
+        assert printed.count("is not a live FMU state of this FMU") == 3, printed
+        # Serialized, a state does move to the other copy.
+        other_copy.fmu.setFMUstate(
+            other_copy.fmu.deSerializeFMUstate(owner.fmu.serializeFMUstate(kept[2]))
+        )
+    finally:
+        sibling.fmi2FreeInstance(sibling.component)
+        owner.close()
+        other_copy.fmu.freeInstance()
