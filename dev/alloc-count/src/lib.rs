@@ -22,11 +22,18 @@ pub struct CountingAllocator;
 
 thread_local! {
     static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+    /// Blocks allocated minus blocks freed on this thread (a reallocation keeps the count).
+    static LIVE_BLOCKS: Cell<isize> = const { Cell::new(0) };
     /// Print a backtrace for every counted allocation.
     static TRACE: Cell<bool> = const { Cell::new(false) };
     /// Set while a backtrace is printed: its own allocations are neither counted nor
     /// traced, so the allocator never recurses into itself.
     static IN_HOOK: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Adds `delta` to this thread's [`live_blocks`].
+fn count_live(delta: isize) {
+    let _ = LIVE_BLOCKS.try_with(|b| b.set(b.get() + delta));
 }
 
 fn count() {
@@ -51,17 +58,20 @@ fn count() {
 unsafe impl GlobalAlloc for CountingAllocator {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         count();
+        count_live(1);
         // SAFETY: the caller's contract for `layout` is passed on unchanged.
         unsafe { System.alloc(layout) }
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         count();
+        count_live(1);
         // SAFETY: the caller's contract for `layout` is passed on unchanged.
         unsafe { System.alloc_zeroed(layout) }
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        count_live(-1);
         // SAFETY: `ptr` was returned by `System` for this `layout` (every allocation goes there).
         unsafe { System.dealloc(ptr, layout) }
     }
@@ -76,6 +86,12 @@ unsafe impl GlobalAlloc for CountingAllocator {
 /// Allocations counted on this thread so far (0 unless [`CountingAllocator`] is installed).
 pub fn allocations() -> usize {
     ALLOCATIONS.with(Cell::get)
+}
+
+/// Blocks allocated minus blocks freed on this thread so far: unchanged across code that
+/// frees all it allocates (on the same thread). 0 unless [`CountingAllocator`] is installed.
+pub fn live_blocks() -> isize {
+    LIVE_BLOCKS.with(Cell::get)
 }
 
 /// Runs `f` and returns how many allocations it made on this thread, with its result.

@@ -339,7 +339,9 @@ fn is_live(p: *mut c_void) -> bool {
 #[cold]
 #[inline(never)]
 fn unregister(p: *mut c_void) {
-    live().remove(&(p as usize));
+    let mut live = live();
+    live.remove(&(p as usize));
+    release_if_empty(&mut live);
 }
 
 /// Unlists and returns the snapshots the instance at address `owner` allocated.
@@ -353,7 +355,18 @@ fn take_owned_by(owner: usize) -> Vec<*mut c_void> {
         .map(|l| l.p)
         .collect();
     live.retain(|_, l| l.owner != owner);
+    release_if_empty(&mut live);
     owned
+}
+
+/// Frees the map's last node once it holds nothing. A map emptied by removals keeps its
+/// root node allocated; in a static that is never dropped it outlives the library, and
+/// every load of the FMU that saved a state would leave one behind (LeakSanitizer found it
+/// at the end of a fuzz run; `tests/alloc.rs` checks it).
+fn release_if_empty(live: &mut BTreeMap<usize, Live>) {
+    if live.is_empty() {
+        *live = BTreeMap::new();
+    }
 }
 
 /// Why an FMU-state pointer was refused.
