@@ -67,6 +67,17 @@ CASES = {
 }
 
 
+def start(slave: Slave, case: Case) -> None:
+    """Initializes `slave` with the case's parameters, for a run to `N_END`."""
+    slave.start(
+        0.0,
+        N_END * H,
+        reals=case.reals,
+        integers=case.integers,
+        enumerations=case.enumerations,
+    )
+
+
 def run(slave: Slave, case: Case, n_from: int, n_to: int) -> np.ndarray:
     """Steps n_from..n_to with the case's inputs; one row of outputs after each step."""
     in_vrs, out_vrs = slave.vrs(case.inputs), slave.vrs(case.outputs)
@@ -85,13 +96,7 @@ def test_get_set_and_serialized_state_replay_identically(fmu_dir: Path, name: st
     case = CASES[name]
     first = Slave(fmu_dir / case.fmu, f"{name}-first")
     try:
-        first.start(
-            0.0,
-            N_END * H,
-            reals=case.reals,
-            integers=case.integers,
-            enumerations=case.enumerations,
-        )
+        start(first, case)
         run(first, case, 0, N_SAVE)
         state = first.fmu.getFMUstate()
         reference = run(first, case, N_SAVE, N_END)
@@ -137,13 +142,7 @@ def test_freed_and_foreign_states_are_refused_and_unfreed_ones_go_with_the_insta
     )
     sibling.instantiate()
     try:
-        owner.start(
-            0.0,
-            N_END * H,
-            reals=case.reals,
-            integers=case.integers,
-            enumerations=case.enumerations,
-        )
+        start(owner, case)
         run(owner, case, 0, 10)
         # Left for fmi2FreeInstance: the owner's close must free them without a crash.
         kept = [owner.fmu.getFMUstate() for _ in range(3)]

@@ -50,12 +50,17 @@ fn step(fmu: &Fmu, n: u32, xv: &mut [f64; 2], steps: &mut [i32; 1]) -> [Status; 
     }
 }
 
+/// An initialized instance after one warm-up step, with the step's output buffers.
+fn warmed(name: &str) -> (Fmu, [f64; 2], [i32; 1]) {
+    let fmu = Fmu::initialized(name);
+    let (mut xv, mut steps) = ([0.0; 2], [0]);
+    assert_eq!(step(&fmu, 0, &mut xv, &mut steps), [Status::Ok; 4]);
+    (fmu, xv, steps)
+}
+
 #[test]
 fn step_loop_through_the_abi_does_not_allocate() {
-    let fmu = Fmu::initialized("alloc");
-    let mut xv = [0.0; 2];
-    let mut steps = [0];
-    assert_eq!(step(&fmu, 0, &mut xv, &mut steps), [Status::Ok; 4]);
+    let (fmu, mut xv, mut steps) = warmed("alloc");
     let before = allocations();
     for n in 1..=1000 {
         let statuses = step(&fmu, n, &mut xv, &mut steps);
@@ -84,10 +89,7 @@ fn counter_counts() {
 /// test in this binary that saves states, so the table is empty before and after.
 #[test]
 fn freed_fmu_states_leave_no_allocation_behind() {
-    let fmu = Fmu::initialized("alloc-states");
-    let mut xv = [0.0; 2];
-    let mut steps = [0];
-    assert_eq!(step(&fmu, 0, &mut xv, &mut steps), [Status::Ok; 4]);
+    let (fmu, ..) = warmed("alloc-states");
     let before = live_blocks();
     let mut s = std::ptr::null_mut();
     assert_eq!(fmu.get_state(&mut s), Status::Ok);
@@ -103,8 +105,7 @@ fn freed_fmu_states_leave_no_allocation_behind() {
     // A whole instance with a state it leaves to fmi2FreeInstance: everything goes.
     let before = live_blocks();
     {
-        let mut fmu = Fmu::initialized("alloc-states-kept");
-        assert_eq!(step(&fmu, 0, &mut xv, &mut steps), [Status::Ok; 4]);
+        let (mut fmu, ..) = warmed("alloc-states-kept");
         let mut kept = std::ptr::null_mut();
         assert_eq!(fmu.get_state(&mut kept), Status::Ok);
         fmu.free();
