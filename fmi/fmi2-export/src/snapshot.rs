@@ -312,7 +312,8 @@ struct Live {
 unsafe impl Send for Live {}
 
 /// The live-snapshot table; a panic while it was held cannot have left it inconsistent
-/// (every update is a single insert, remove or retain), so poisoning is ignored.
+/// (every update is a single insert, remove, retain or swap for an empty map), so
+/// poisoning is ignored.
 fn live() -> MutexGuard<'static, BTreeMap<usize, Live>> {
     LIVE.lock().unwrap_or_else(PoisonError::into_inner)
 }
