@@ -121,11 +121,11 @@ impl<M: Model> Snapshot<M> {
     #[cold]
     #[inline(never)]
     pub(crate) unsafe fn free(p: *mut c_void) -> Result<(), NotOurs> {
-        // SAFETY: forwarded contract; the reference ends before the box is rebuilt.
-        unsafe { Self::from_ptr(p) }?.tag.invalidate();
+        // SAFETY: forwarded contract; the reference is not kept.
+        unsafe { Self::from_ptr(p) }?;
         unregister(p);
         // SAFETY: a live `Snapshot<M>` from `Box::into_raw` (checked above), now unlisted,
-        // so this is the one place that frees it.
+        // so this is the one place that frees it and no function reads it again.
         drop(unsafe { Box::from_raw(p.cast::<Self>()) });
         Ok(())
     }
@@ -144,9 +144,7 @@ impl<M: Model> Snapshot<M> {
             if unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
                 // SAFETY: a `Snapshot<M>` from `Box::into_raw`, unlisted above, so freed
                 // only here; its pointer is no longer accepted by any function.
-                let mut snap = unsafe { Box::from_raw(p.cast::<Self>()) };
-                snap.tag.invalidate();
-                drop(snap);
+                drop(unsafe { Box::from_raw(p.cast::<Self>()) });
             }
         }
     }
@@ -296,25 +294,22 @@ impl<M: Model> Snapshot<M> {
 /// twice-freed or made-up FMU state an fmi2Error instead of a read of memory the glue
 /// does not own. Locked only by the FMU-state functions and fmi2FreeInstance, never in a
 /// step.
-static LIVE: Mutex<BTreeMap<usize, Live>> = Mutex::new(BTreeMap::new());
+static LIVE: Mutex<BTreeMap<Handed, usize>> = Mutex::new(BTreeMap::new());
 
-/// An entry of [`LIVE`]: the snapshot's pointer as handed out (kept as a pointer, not
-/// rebuilt from the address, so that freeing it keeps its provenance) and its instance's
-/// address.
-struct Live {
-    p: *mut c_void,
-    owner: usize,
-}
+/// A snapshot pointer as handed out: kept as a pointer, not as its address, so that the
+/// one freeing it keeps its provenance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+struct Handed(*mut c_void);
 
-// SAFETY: `p` is only a key and a handle: the table never dereferences it, and a snapshot
-// is read or freed by one thread at a time (the FMI functions' contract), whichever
-// thread allocated it.
-unsafe impl Send for Live {}
+// SAFETY: the table only compares and returns these pointers, never dereferences them,
+// and a snapshot is read or freed by one thread at a time (the FMI functions' contract),
+// whichever thread allocated it.
+unsafe impl Send for Handed {}
 
 /// The live-snapshot table; a panic while it was held cannot have left it inconsistent
 /// (every update is a single insert, remove, retain or swap for an empty map), so
 /// poisoning is ignored.
-fn live() -> MutexGuard<'static, BTreeMap<usize, Live>> {
+fn live() -> MutexGuard<'static, BTreeMap<Handed, usize>> {
     LIVE.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
@@ -327,13 +322,13 @@ fn live() -> MutexGuard<'static, BTreeMap<usize, Live>> {
 #[cold]
 #[inline(never)]
 fn register(p: *mut c_void, owner: usize) {
-    live().insert(p as usize, Live { p, owner });
+    live().insert(Handed(p), owner);
 }
 
 /// Whether `p` is a live snapshot.
 #[inline(never)]
 fn is_live(p: *mut c_void) -> bool {
-    live().contains_key(&(p as usize))
+    live().contains_key(&Handed(p))
 }
 
 /// Unlists `p`.
@@ -341,7 +336,7 @@ fn is_live(p: *mut c_void) -> bool {
 #[inline(never)]
 fn unregister(p: *mut c_void) {
     let mut live = live();
-    live.remove(&(p as usize));
+    live.remove(&Handed(p));
     release_if_empty(&mut live);
 }
 
@@ -350,12 +345,13 @@ fn unregister(p: *mut c_void) {
 #[inline(never)]
 fn take_owned_by(owner: usize) -> Vec<*mut c_void> {
     let mut live = live();
-    let owned = live
-        .values()
-        .filter(|l| l.owner == owner)
-        .map(|l| l.p)
-        .collect();
-    live.retain(|_, l| l.owner != owner);
+    let mut owned = Vec::new();
+    live.retain(|&Handed(p), &mut o| {
+        if o == owner {
+            owned.push(p);
+        }
+        o != owner
+    });
     release_if_empty(&mut live);
     owned
 }
@@ -364,7 +360,7 @@ fn take_owned_by(owner: usize) -> Vec<*mut c_void> {
 /// root node allocated; in a static that is never dropped it outlives the library, and
 /// every load of the FMU that saved a state would leave one behind (LeakSanitizer found it
 /// at the end of a fuzz run; `tests/alloc.rs` checks it).
-fn release_if_empty(live: &mut BTreeMap<usize, Live>) {
+fn release_if_empty(live: &mut BTreeMap<Handed, usize>) {
     if live.is_empty() {
         *live = BTreeMap::new();
     }
