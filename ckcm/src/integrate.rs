@@ -181,6 +181,9 @@ pub struct DormandPrince {
     pub max_steps: usize,
     /// Step size to try first on the next call, s; 0 means "start with the interval".
     pub h_next: f64,
+    /// Steps (accepted and rejected) the last successful [`DormandPrince::advance`] took,
+    /// so that a caller can tell a user why a run has slowed down. Default 0.
+    pub last_steps: usize,
 }
 
 impl Default for DormandPrince {
@@ -191,6 +194,7 @@ impl Default for DormandPrince {
             h_min: 1e-12,
             max_steps: 100_000,
             h_next: 0.0,
+            last_steps: 0,
         }
     }
 }
@@ -302,6 +306,7 @@ impl DormandPrince {
             }
         }
         self.h_next = step;
+        self.last_steps = steps;
         let next = State::from_vector(&y);
         if !next.is_finite() {
             return Err(IntegrationError::NonFinite);

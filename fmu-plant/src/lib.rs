@@ -72,6 +72,8 @@ fn mechanism_params(variables: &[VarSpec], values: &Values) -> ModelResult<Param
 pub struct CkcmPlant {
     values: Values,
     sim: Option<Sim>,
+    /// A remark on the last step, for [`Model::take_warning`].
+    warning: Option<String>,
 }
 
 #[derive(Debug, Clone)]
@@ -84,6 +86,9 @@ struct Sim {
     /// Index of the current communication point: 0 after initialization, +1 per doStep.
     /// The noise is drawn from it (not from the time), so it survives any step size.
     point: u64,
+    /// Whether the adaptive integrator's slowness has been reported (once per
+    /// initialization, so that a slow run is not also a flood of messages).
+    slow_reported: bool,
 }
 
 /// Seeded white Gaussian sensor noise on the reported lengths and rates (docs/model.md §10).
@@ -256,6 +261,7 @@ impl CkcmPlant {
             state: State::at_rest(Pose::from_xyz_euler(&initial)),
             noise: self.noise()?,
             point: 0,
+            slow_reported: false,
         })
     }
 
@@ -306,6 +312,29 @@ impl CkcmPlant {
     }
 }
 
+/// An interval that takes the adaptive integrator this many steps or more is reported. A
+/// 1 ms interval of the paper's trials takes 2–15; at the smallest `friction_velocity`
+/// (10⁻⁶ m/s) the smoothed Coulomb friction makes the motion so stiff that one takes
+/// about 2,900 and a 15 s trial minutes. The user then hears why, long before
+/// `max_steps` refuses a step.
+const SLOW_STEPS: usize = 1_000;
+
+/// The warning for an interval that took `dp` [`DormandPrince::last_steps`] steps.
+#[cold]
+#[inline(never)]
+fn slow_integration(dp: &DormandPrince) -> String {
+    format!(
+        "the adaptive integrator took {} steps in this interval ({SLOW_STEPS} or more make \
+         a run slow; at {} it refuses a step). The motion is stiff (a small \
+         friction_velocity or a large viscous_friction makes it so) or relative_tolerance = \
+         {} and absolute_tolerance = {} are tight (reported once per initialization)",
+        dp.last_steps,
+        dp.max_steps,
+        Shown(dp.rtol),
+        Shown(dp.atol)
+    )
+}
+
 /// The Discard of a step from `t` by `h` under `force` that is refused for `cause`. Out of
 /// line and cold: formatted in place, the message's code sat between the step's own
 /// (BENCHMARKS.md, round 33).
@@ -327,6 +356,7 @@ impl Model for CkcmPlant {
         Self {
             values: Values::for_variables(md::START, md::VARIABLES),
             sim: None,
+            warning: None,
         }
     }
 
@@ -379,8 +409,18 @@ impl Model for CkcmPlant {
         sim.state = next;
         sim.integrator = integrator;
         sim.point += 1;
+        if let Integrator::DormandPrince(dp) = &integrator {
+            if dp.last_steps >= SLOW_STEPS && !sim.slow_reported {
+                sim.slow_reported = true;
+                self.warning = Some(slow_integration(dp));
+            }
+        }
         self.write_outputs_from(&legs);
         Ok(())
+    }
+
+    fn take_warning(&mut self) -> Option<String> {
+        self.warning.take()
     }
 
     fn save(&self, out: &mut Vec<u8>) {
@@ -407,6 +447,7 @@ impl Model for CkcmPlant {
         let mut restored = Self {
             values: Values::default(),
             sim: None,
+            warning: None,
         };
         restored.values.restore(&mut r)?;
         if r.u8()? == 1 {

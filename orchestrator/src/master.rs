@@ -6,6 +6,8 @@
 //! preallocated slices and calls the FMUs.
 
 use std::ops::Range;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use ckcm::learning::MemoryUpdate;
 use fmi2_import::{Fmu, ImportError, Instance};
@@ -343,6 +345,10 @@ pub struct Master<'s> {
     initialized_once: bool,
     /// Whether the FMUs' log messages are forwarded to stderr as they come (`--fmu-logging`).
     logging: bool,
+    /// Per FMU, whether a warning of its fmi2DoStep has been shown (without `--fmu-logging`
+    /// only the first is, so that an FMU that warns every step does not flood the console).
+    /// Shared by the masters of one campaign's lanes ([`Master::share_warning_flags`]).
+    warning_shown: Arc<[AtomicBool]>,
 }
 
 impl<'s> Master<'s> {
@@ -530,9 +536,18 @@ impl<'s> Master<'s> {
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
             logging,
+            warning_shown: warning_flags(scenario.fmus.len()),
         };
         master.forward_log();
         Ok(master)
+    }
+
+    /// Makes this master show an FMU's first fmi2DoStep warning only if no other master
+    /// holding `flags` (from [`warning_flags`]) has shown one of that FMU: the masters of
+    /// one campaign's lanes share them, so that a campaign says it once.
+    pub fn share_warning_flags(&mut self, flags: Arc<[AtomicBool]>) {
+        assert_eq!(flags.len(), self.instances.len(), "one flag per FMU");
+        self.warning_shown = flags;
     }
 
     /// Names of the outputs that feed the memory channels, channel by channel.
@@ -743,8 +758,11 @@ impl<'s> Master<'s> {
                     }
                 }
                 let inst = &mut self.instances[k];
-                if let Err(source) = inst.do_step(t, h, true) {
-                    return Err(step_failed(sc, k, inst, trial, t, source));
+                match inst.do_step(t, h, true) {
+                    Ok(fmi2_import::Status::Ok) => {}
+                    Ok(_) if self.logging => {}
+                    Ok(_) => step_warned(inst, trial, t, &self.warning_shown[k]),
+                    Err(source) => return Err(step_failed(sc, k, inst, trial, t, source)),
                 }
                 let read = if recorded {
                     w.out_vrs.len()
@@ -831,6 +849,38 @@ fn call_failed(
         what,
         source: Box::new(source),
     }
+}
+
+/// One "warning shown" flag per FMU, none set, for [`Master::share_warning_flags`].
+pub fn warning_flags(fmus: usize) -> Arc<[AtomicBool]> {
+    (0..fmus).map(|_| AtomicBool::new(false)).collect()
+}
+
+/// FMU `inst`'s doStep from `time` returned fmi2Warning: the step stands, and the user hears
+/// why (the FMU's first warning, with trial and time; `--fmu-logging` shows them all).
+#[cold]
+#[inline(never)]
+fn step_warned(inst: &Instance, trial: usize, time: f64, shown: &AtomicBool) {
+    let log = inst.take_log();
+    if shown.swap(true, Ordering::Relaxed) {
+        return;
+    }
+    let warnings: Vec<_> = log
+        .iter()
+        .filter(|r| r.status == fmi2_import::Status::Warning)
+        .map(|r| r.message.as_str())
+        .collect();
+    let text = if warnings.is_empty() {
+        "(it logged no message)".to_owned()
+    } else {
+        warnings.join("; ")
+    };
+    crate::console!(
+        "warning: trial {trial}, t = {} s: FMU {:?} returned fmi2Warning from fmi2DoStep: \
+         {text}\n  (its further warnings are not shown; --fmu-logging shows every message)",
+        seconds(time),
+        inst.name()
+    );
 }
 
 /// FMU `k`'s doStep from `time` failed; for fmi2Discard (the FMU stopped early) the error

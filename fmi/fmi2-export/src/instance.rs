@@ -720,7 +720,23 @@ impl<M: Model> Instance<M> {
         self.glue.time = end;
         self.glue.first_step.get_or_insert(h);
         self.glue.last_step_status = Status::Ok;
+        if let Some(remark) = self.model.take_warning() {
+            return Err(self.step_warning(cp, h, remark));
+        }
         Ok(Status::Ok)
+    }
+
+    /// The outcome of a model step that was taken with a remark: fmi2Warning, the step
+    /// stands. Out of line, as [`step_refused`].
+    #[cold]
+    #[inline(never)]
+    fn step_warning(&mut self, cp: f64, h: f64, remark: String) -> Failure {
+        self.glue.last_step_status = Status::Warning;
+        Failure::warning(format!(
+            "step from {} by {} taken: {remark}",
+            Shown(cp),
+            Shown(h)
+        ))
     }
 
     /// The outcome of a model step that failed: a Discard leaves the time where it was and

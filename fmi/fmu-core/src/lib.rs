@@ -231,6 +231,16 @@ pub trait Model: Clone + Send + 'static {
     /// Advances from `t` (the communication point, exactly as the master passed it) by `h > 0`.
     fn do_step(&mut self, t: f64, h: f64) -> ModelResult<()>;
 
+    /// A remark on the step [`Model::do_step`] just took successfully, handed over once:
+    /// the glue logs it and returns fmi2Warning from that fmi2DoStep, whose step stands.
+    /// For what a user should hear about while the run goes on (e.g. the integrator slowing
+    /// to a crawl); called after every successful step, so it must be cheap when there is
+    /// nothing to say. The default has nothing to say.
+    #[inline]
+    fn take_warning(&mut self) -> Option<String> {
+        None
+    }
+
     /// Appends the complete dynamic state (parameters included) as plain bytes, pointer-free.
     fn save(&self, out: &mut Vec<u8>);
     /// Rebuilds the state written by `save` (the glue has checked header, model and version).

@@ -10,6 +10,7 @@
 //! the campaign stops at the first failed trial.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, sync_channel};
 
@@ -17,7 +18,7 @@ use fmi2_import::Fmu;
 use indicatif::ProgressBar;
 
 use super::{CampaignError, TrialSummary};
-use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped};
+use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped, warning_flags};
 use crate::output::RecordedRows;
 use crate::scenario::Scenario;
 
@@ -105,6 +106,8 @@ struct Shared<'a> {
     lanes: usize,
     bar: &'a ProgressBar,
     abort: &'a AtomicBool,
+    /// Which FMUs' warnings have been shown, shared by every lane's master.
+    warned: Arc<[AtomicBool]>,
 }
 
 struct Ends {
@@ -142,7 +145,11 @@ fn lane(
 ) {
     let set_up = fmus
         .map_or_else(|| open_copies(sh.scenario), Ok)
-        .and_then(|fmus| Ok(Master::new(sh.scenario, fmus, sh.logging)?));
+        .and_then(|fmus| Ok(Master::new(sh.scenario, fmus, sh.logging)?))
+        .map(|mut master| {
+            master.share_warning_flags(sh.warned.clone());
+            master
+        });
     let mut master = match set_up {
         Ok(m) => m,
         Err(e) => {
@@ -242,6 +249,7 @@ impl Lanes {
         }
         let (tx, reports) = std::sync::mpsc::channel();
         let mut fmus = Some(fmus);
+        let warned = warning_flags(scenario.fmus.len());
         for i in 0..n {
             let prev = (i + n - 1) % n;
             let ends = Ends {
@@ -258,6 +266,7 @@ impl Lanes {
                 lanes: n,
                 bar,
                 abort,
+                warned: warned.clone(),
             };
             let tx = tx.clone();
             let (own, initial) = if i == 0 {
