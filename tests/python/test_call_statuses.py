@@ -1,13 +1,15 @@
-"""Every FMI call fmpy makes on a full plant run returns fmi2OK (not even a warning)."""
+"""Every FMI call fmpy makes on a full plant run returns fmi2OK (not even a warning), and
+the one warning the plant has, a stiff adaptive integration, reaches fmpy once."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from fmpy import simulate_fmu
+import pytest
+from fmpy import read_model_description, simulate_fmu
 
-from master import legs
+from master import enumeration_value, legs
 
 #: fmpy logs `fmi2DoStep(...) -> OK`; other tools write `-> fmi2OK`. Calls returning a
 #: pointer log `-> 0x...` and void calls log no arrow, so neither matches.
@@ -54,3 +56,47 @@ def test_status_parser_reads_both_spellings_and_skips_calls_without_status() -> 
         None,
         None,
     ]
+
+
+def test_a_stiff_plant_step_returns_a_warning_once_and_the_run_goes_on(
+    plant_fmu: Path,
+) -> None:
+    """At the smallest friction_velocity the adaptive integrator needs thousands of steps per
+    1 ms interval: the plant's first doStep returns fmi2Warning with a message saying why, the
+    later ones fmi2OK, and fmpy runs to the stop time."""
+    md = read_model_description(str(plant_fmu))
+    force = {name: 28.531475275310612 for name in legs("force")}
+    force["force[1]"] += 1.5  # below the Coulomb friction: leg 1 creeps, its rate near zero
+    calls: list[str] = []
+    messages: list[tuple[int, str, str]] = []
+    result = simulate_fmu(
+        str(plant_fmu),
+        fmi_type="CoSimulation",
+        output_interval=1e-3,
+        stop_time=0.004,
+        start_values={
+            **force,
+            "integrator": enumeration_value(md, "integrator", "dormand_prince"),
+            "friction_velocity": 1e-6,
+        },
+        debug_logging=True,
+        logger=lambda _env, _name, status, category, message: messages.append(
+            (status, category.decode(), message.decode())
+        ),
+        fmi_call_logger=calls.append,
+    )
+    assert result["time"][-1] == pytest.approx(0.004)
+    steps = [
+        m.group(2).lower()
+        for line in calls
+        if (m := STATUS.match(line)) and m.group(1) == "fmi2DoStep"
+    ]
+    assert steps == ["warning", "ok", "ok", "ok"], steps
+    warnings = [
+        text
+        for status, category, text in messages
+        if status == 1 and category == "logStatusWarning"
+    ]
+    assert len(warnings) == 1, messages
+    assert "step from 0 by 0.001 taken: the adaptive integrator took" in warnings[0]
+    assert "friction_velocity" in warnings[0]

@@ -110,6 +110,41 @@ fn steps_may_not_pass_the_stop_time() {
     );
 }
 
+/// A model's remark on a step it took ([`fmu_core::Model::take_warning`]) makes that
+/// fmi2DoStep return fmi2Warning: the step stands, the message goes to logStatusWarning
+/// when that category is on, fmi2GetStatus(fmi2DoStepStatus) says Warning, and the instance
+/// steps on.
+#[test]
+fn a_step_taken_with_a_warning_stands() {
+    for logging in [true, false] {
+        let fmu = Fmu::with_logging("warn", logging);
+        assert_eq!(fmu.setup(0.0, None), Status::Ok);
+        assert_eq!(fmu.enter_init(), Status::Ok);
+        assert_eq!(fmu.exit_init(), Status::Ok);
+        assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
+        assert_eq!(fmu.do_step_status(), Status::Ok);
+        let x = fmu.real(vr::X);
+        assert_eq!(fmu.set_integer(&[vr::FAIL_MODE], &[fail::WARN]), Status::Ok);
+        assert_eq!(fmu.do_step(0.01, 0.01), Status::Warning);
+        assert_eq!(fmu.state(), Some(FmiState::StepComplete));
+        assert_eq!(fmu.last_successful_time(), (Status::Ok, 0.02));
+        assert_eq!(fmu.get_integer(&[vr::STEP_COUNT]).1, [2]);
+        assert_ne!(fmu.real(vr::X), x, "the step was taken");
+        assert_eq!(fmu.do_step_status(), Status::Warning);
+        let warned = fmu.log.records().iter().any(|r| {
+            r.status == 1
+                && r.category == "logStatusWarning"
+                && r.message
+                    == "fmi2DoStep: step from 0.01 by 0.01 taken: fail_mode asks for a warning"
+        });
+        assert_eq!(warned, logging, "{:?}", fmu.log.records());
+        assert_eq!(fmu.set_integer(&[vr::FAIL_MODE], &[fail::NONE]), Status::Ok);
+        assert_eq!(fmu.do_step(0.02, 0.01), Status::Ok);
+        assert_eq!(fmu.do_step_status(), Status::Ok);
+        assert_eq!(fmu.last_successful_time(), (Status::Ok, 0.03));
+    }
+}
+
 #[test]
 fn discarded_step_reports_terminated_and_last_successful_time() {
     let fmu = Fmu::with_logging("discard", true);

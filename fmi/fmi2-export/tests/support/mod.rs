@@ -44,6 +44,8 @@ pub mod fail {
     pub const DISCARD: i32 = 1;
     pub const ERROR: i32 = 2;
     pub const PANIC: i32 = 3;
+    /// The step is taken, with a warning ([`fmu_core::Model::take_warning`]).
+    pub const WARN: i32 = 4;
 }
 
 pub const GUID: &str = "{5f1c2e7a-0d3b-4c8e-9a61-oscillator-test}";
@@ -353,6 +355,10 @@ impl Model for Oscillator {
         self.time = t + h;
         self.step_count += 1;
         Ok(())
+    }
+
+    fn take_warning(&mut self) -> Option<String> {
+        (self.fail_mode == fail::WARN).then(|| "fail_mode asks for a warning".to_owned())
     }
 
     fn save(&self, out: &mut Vec<u8>) {
@@ -791,6 +797,16 @@ impl Fmu {
     }
 
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
+    /// fmi2GetStatus(fmi2DoStepStatus): the status of the last fmi2DoStep.
+    pub fn do_step_status(&self) -> Status {
+        let mut st = -1;
+        // SAFETY: our live instance, valid out pointer.
+        let s =
+            unsafe { abi::get_status::<Oscillator>(self.c, status_kind::DO_STEP_STATUS, &mut st) };
+        assert_eq!(status(s), Status::Ok, "{:?}", self.log.messages());
+        status(st)
+    }
+
     pub fn last_successful_time(&self) -> (Status, f64) {
         let mut t = f64::NAN;
         // SAFETY: our live instance, valid out pointer.
