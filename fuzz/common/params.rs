@@ -2,7 +2,8 @@
 //! fuzzer: settings within the declared ranges (the glue refuses the rest before the model
 //! sees them), initialization, steps of varied sizes, tunable parameters and inputs changed
 //! between steps. Every call either succeeds or returns an error; after a success every
-//! Real output is finite. A panic, a hang or a huge allocation is a finding.
+//! Real output is finite, and a step's warning, if any, is handed over once. A panic, a
+//! hang or a huge allocation is a finding.
 #[path = "outputs.rs"]
 mod outputs;
 
@@ -124,6 +125,13 @@ fn drive<M: Model>(u: &mut Unstructured) -> Result<()> {
         ));
         if step.is_err() {
             break;
+        }
+        // A remark on the step, as the glue asks for it after every successful step:
+        // handed over once, and never empty.
+        if let Some(warning) = m.take_warning() {
+            trace(format_args!("warning: {warning}"));
+            assert!(!warning.is_empty(), "an empty step warning");
+            assert_eq!(m.take_warning(), None, "a step warning handed over twice");
         }
         t += h;
         outputs_finite(&m, &format!("after the step to t = {t}"));
