@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{fmu_path_text, orchestrator};
+use common::{CLOSED_LOOP, fmu_path_text, orchestrator};
 
 /// The line scenario with the plant on the adaptive integrator and the smallest
 /// `friction_velocity`, where every 1 ms interval takes it thousands of steps: the plant
@@ -30,18 +30,7 @@ path = "{plant}"
 [fmu.parameters]
 integrator = "dormand_prince"
 friction_velocity = 1e-6
-[[connection]]
-from = "plant.length"
-to = "controller.length"
-[[connection]]
-from = "plant.velocity"
-to = "controller.velocity"
-[[connection]]
-from = "controller.force"
-to = "plant.force"
-[[memory]]
-from = "controller.memory_next"
-to = "controller.memory"
+{CLOSED_LOOP}
 [record]
 variables = ["plant.length"]
 "#,
