@@ -796,7 +796,6 @@ impl Fmu {
         })
     }
 
-    /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
     /// fmi2GetStatus(fmi2DoStepStatus): the status of the last fmi2DoStep.
     pub fn do_step_status(&self) -> Status {
         let mut st = -1;
@@ -807,6 +806,7 @@ impl Fmu {
         status(st)
     }
 
+    /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
     pub fn last_successful_time(&self) -> (Status, f64) {
         let mut t = f64::NAN;
         // SAFETY: our live instance, valid out pointer.
