@@ -34,7 +34,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 pub use self::lock::{DirLock, LOCK_FILE};
 use self::writers::Writers;
-use crate::master::{Master, MasterError, TrialSignals};
+use crate::master::{FmuConsole, Master, MasterError, TrialSignals};
 use crate::output::{
     CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, write_atomic,
     write_recorded_rows, write_table_csv,
@@ -849,6 +849,7 @@ pub fn run_campaign(
         (None, Some(fmus))
     } else {
         let mut master = Master::new(scenario, fmus, opts.fmu_logging)?;
+        master.set_console(FmuConsole::new(bar.clone(), scenario.fmus.len()));
         if let Some(data) = &initial {
             master.set_memory(data);
         }

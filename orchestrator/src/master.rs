@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use ckcm::learning::MemoryUpdate;
 use fmi2_import::{Fmu, ImportError, Instance};
+use indicatif::ProgressBar;
 
 use crate::output::{RecordedRows, seconds};
 use crate::scenario::{Port, Scenario};
@@ -345,10 +346,30 @@ pub struct Master<'s> {
     initialized_once: bool,
     /// Whether the FMUs' log messages are forwarded to stderr as they come (`--fmu-logging`).
     logging: bool,
-    /// Per FMU, whether a warning of its fmi2DoStep has been shown (without `--fmu-logging`
-    /// only the first is, so that an FMU that warns every step does not flood the console).
-    /// Shared by the masters of one campaign's lanes ([`Master::share_warning_flags`]).
-    warning_shown: Arc<[AtomicBool]>,
+    /// Where the FMUs' messages are shown while trials run ([`Master::set_console`]).
+    console: FmuConsole,
+}
+
+/// Where a master shows what its FMUs say while trials run: through the campaign's progress
+/// bar, which `suspend`s itself so that its redraw does not erase the message, and with one
+/// flag per FMU saying whether a warning of its fmi2DoStep has been shown. Without
+/// `--fmu-logging` only the first is, so that an FMU that warns every step does not flood
+/// the console; the masters of a campaign's lanes share one `FmuConsole` (clones share the
+/// flags), so that the campaign says it once.
+#[derive(Clone, Debug)]
+pub struct FmuConsole {
+    bar: ProgressBar,
+    warned: Arc<[AtomicBool]>,
+}
+
+impl FmuConsole {
+    /// A console for `fmus` FMUs printing through `bar` (`ProgressBar::hidden()` for none).
+    pub fn new(bar: ProgressBar, fmus: usize) -> Self {
+        Self {
+            bar,
+            warned: (0..fmus).map(|_| AtomicBool::new(false)).collect(),
+        }
+    }
 }
 
 impl<'s> Master<'s> {
@@ -536,18 +557,21 @@ impl<'s> Master<'s> {
             has_pose: metrics.is_some_and(|m| m.pose.is_some()),
             initialized_once: false,
             logging,
-            warning_shown: warning_flags(scenario.fmus.len()),
+            console: FmuConsole::new(ProgressBar::hidden(), scenario.fmus.len()),
         };
         master.forward_log();
         Ok(master)
     }
 
-    /// Makes this master show an FMU's first fmi2DoStep warning only if no other master
-    /// holding `flags` (from [`warning_flags`]) has shown one of that FMU: the masters of
-    /// one campaign's lanes share them, so that a campaign says it once.
-    pub fn share_warning_flags(&mut self, flags: Arc<[AtomicBool]>) {
-        assert_eq!(flags.len(), self.instances.len(), "one flag per FMU");
-        self.warning_shown = flags;
+    /// Shows the FMUs' messages through `console` from now on (see [`FmuConsole`]); it must
+    /// have been made for this scenario's FMUs.
+    pub fn set_console(&mut self, console: FmuConsole) {
+        debug_assert_eq!(
+            console.warned.len(),
+            self.instances.len(),
+            "one flag per FMU"
+        );
+        self.console = console;
     }
 
     /// Names of the outputs that feed the memory channels, channel by channel.
@@ -651,11 +675,13 @@ impl<'s> Master<'s> {
     /// Out of line: only `--fmu-logging` runs it, and `forward_log` is in every step.
     #[inline(never)]
     fn print_log(&self) {
-        for inst in &self.instances {
-            for record in inst.take_log() {
-                crate::console!("{}: {record}", inst.name());
+        self.console.bar.suspend(|| {
+            for inst in &self.instances {
+                for record in inst.take_log() {
+                    crate::console!("{}: {record}", inst.name());
+                }
             }
-        }
+        });
     }
 
     /// Runs trial `trial` with the current read buffers, filling the write buffers,
@@ -761,7 +787,7 @@ impl<'s> Master<'s> {
                 match inst.do_step(t, h, true) {
                     Ok(fmi2_import::Status::Ok) => {}
                     Ok(_) if self.logging => {}
-                    Ok(_) => step_warned(inst, trial, t, &self.warning_shown[k]),
+                    Ok(_) => step_warned(inst, trial, t, &self.console, k),
                     Err(source) => return Err(step_failed(sc, k, inst, trial, t, source)),
                 }
                 let read = if recorded {
@@ -851,18 +877,17 @@ fn call_failed(
     }
 }
 
-/// One "warning shown" flag per FMU, none set, for [`Master::share_warning_flags`].
-pub fn warning_flags(fmus: usize) -> Arc<[AtomicBool]> {
-    (0..fmus).map(|_| AtomicBool::new(false)).collect()
-}
-
 /// FMU `inst`'s doStep from `time` returned fmi2Warning: the step stands, and the user hears
 /// why (the FMU's first warning, with trial and time; `--fmu-logging` shows them all).
 #[cold]
 #[inline(never)]
-fn step_warned(inst: &Instance, trial: usize, time: f64, shown: &AtomicBool) {
+fn step_warned(inst: &Instance, trial: usize, time: f64, console: &FmuConsole, k: usize) {
     let log = inst.take_log();
-    if shown.swap(true, Ordering::Relaxed) {
+    if console
+        .warned
+        .get(k)
+        .is_none_or(|w| w.swap(true, Ordering::Relaxed))
+    {
         return;
     }
     let warnings: Vec<_> = log
@@ -875,12 +900,14 @@ fn step_warned(inst: &Instance, trial: usize, time: f64, shown: &AtomicBool) {
     } else {
         warnings.join("; ")
     };
-    crate::console!(
-        "warning: trial {trial}, t = {} s: FMU {:?} returned fmi2Warning from fmi2DoStep: \
-         {text}\n  (its further warnings are not shown; --fmu-logging shows every message)",
-        seconds(time),
-        inst.name()
-    );
+    console.bar.suspend(|| {
+        crate::console!(
+            "warning: trial {trial}, t = {} s: FMU {:?} returned fmi2Warning from fmi2DoStep: \
+             {text}\n  (its further warnings are not shown; --fmu-logging shows every message)",
+            seconds(time),
+            inst.name()
+        );
+    });
 }
 
 /// FMU `k`'s doStep from `time` failed; for fmi2Discard (the FMU stopped early) the error

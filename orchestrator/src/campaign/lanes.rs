@@ -10,7 +10,6 @@
 //! the campaign stops at the first failed trial.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, sync_channel};
 
@@ -18,7 +17,7 @@ use fmi2_import::Fmu;
 use indicatif::ProgressBar;
 
 use super::{CampaignError, TrialSummary};
-use crate::master::{CHUNK_STEPS, Master, MasterError, MemoryLink, Stopped, warning_flags};
+use crate::master::{CHUNK_STEPS, FmuConsole, Master, MasterError, MemoryLink, Stopped};
 use crate::output::RecordedRows;
 use crate::scenario::Scenario;
 
@@ -106,8 +105,8 @@ struct Shared<'a> {
     lanes: usize,
     bar: &'a ProgressBar,
     abort: &'a AtomicBool,
-    /// Which FMUs' warnings have been shown, shared by every lane's master.
-    warned: Arc<[AtomicBool]>,
+    /// Where every lane's master shows its FMUs' messages.
+    console: FmuConsole,
 }
 
 struct Ends {
@@ -147,7 +146,7 @@ fn lane(
         .map_or_else(|| open_copies(sh.scenario), Ok)
         .and_then(|fmus| Ok(Master::new(sh.scenario, fmus, sh.logging)?))
         .map(|mut master| {
-            master.share_warning_flags(sh.warned.clone());
+            master.set_console(sh.console.clone());
             master
         });
     let mut master = match set_up {
@@ -249,7 +248,7 @@ impl Lanes {
         }
         let (tx, reports) = std::sync::mpsc::channel();
         let mut fmus = Some(fmus);
-        let warned = warning_flags(scenario.fmus.len());
+        let console = FmuConsole::new(bar.clone(), scenario.fmus.len());
         for i in 0..n {
             let prev = (i + n - 1) % n;
             let ends = Ends {
@@ -266,7 +265,7 @@ impl Lanes {
                 lanes: n,
                 bar,
                 abort,
-                warned: warned.clone(),
+                console: console.clone(),
             };
             let tx = tx.clone();
             let (own, initial) = if i == 0 {
