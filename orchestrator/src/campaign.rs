@@ -826,6 +826,7 @@ pub fn run_campaign(
     } else {
         ProgressBar::hidden()
     };
+    let console = FmuConsole::new(bar.clone(), scenario.fmus.len()).for_campaign(dir);
     // Each lane holds a master's buffers, and a recording waiting for its writer: as many
     // lanes as the memory limit has room for.
     let per_lane =
@@ -849,7 +850,7 @@ pub fn run_campaign(
         (None, Some(fmus))
     } else {
         let mut master = Master::new(scenario, fmus, opts.fmu_logging)?;
-        master.set_console(FmuConsole::new(bar.clone(), scenario.fmus.len()));
+        master.set_console(console.clone());
         if let Some(data) = &initial {
             master.set_memory(data);
         }
@@ -899,7 +900,7 @@ pub fn run_campaign(
                 opts.fmu_logging,
                 (first, last),
                 initial.as_deref(),
-                &bar,
+                (&bar, &console),
                 &abort,
             )?),
             None => None,

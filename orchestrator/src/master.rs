@@ -360,6 +360,8 @@ pub struct Master<'s> {
 pub struct FmuConsole {
     bar: ProgressBar,
     warned: Arc<[AtomicBool]>,
+    /// What a message names first: the campaign's folder and ": ", or nothing.
+    campaign: String,
 }
 
 impl FmuConsole {
@@ -368,7 +370,15 @@ impl FmuConsole {
         Self {
             bar,
             warned: (0..fmus).map(|_| AtomicBool::new(false)).collect(),
+            campaign: String::new(),
         }
+    }
+
+    /// Names the campaign folder `dir` in each warning: a sweep or the paper study runs many
+    /// campaigns, and "trial 0" alone would not say which.
+    pub fn for_campaign(mut self, dir: &std::path::Path) -> Self {
+        self.campaign = format!("{}: ", dir.display());
+        self
     }
 }
 
@@ -902,8 +912,10 @@ fn step_warned(inst: &Instance, trial: usize, time: f64, console: &FmuConsole, k
     };
     console.bar.suspend(|| {
         crate::console!(
-            "warning: trial {trial}, t = {} s: FMU {:?} returned fmi2Warning from fmi2DoStep: \
-             {text}\n  (its further warnings are not shown; --fmu-logging shows every message)",
+            "warning: {}trial {trial}, t = {} s: FMU {:?} returned fmi2Warning from \
+             fmi2DoStep: {text}\n  (its further warnings in this campaign are not shown; \
+             --fmu-logging shows every message)",
+            console.campaign,
             seconds(time),
             inst.name()
         );

@@ -69,8 +69,13 @@ fn the_first_step_warning_is_shown_once_with_trial_and_time() {
             1,
             "{jobs}: {err}"
         );
+        // The campaign's folder first: a sweep or the paper study runs many.
+        let folder = tmp.path().join(out);
         assert!(
-            err.contains("warning: trial 0, t = 0 s: FMU \"plant\" returned fmi2Warning"),
+            err.contains(&format!(
+                "warning: {}: trial 0, t = 0 s: FMU \"plant\" returned fmi2Warning",
+                folder.display()
+            )),
             "{jobs}: {err}"
         );
         assert!(

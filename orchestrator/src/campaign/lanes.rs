@@ -215,7 +215,8 @@ impl Lanes {
     /// Starts `n` lanes for trials `first..last` in `scope`: lane i runs the trials
     /// `first + i (mod n)`, the first on `fmus`, the others on copies they open, in a ring
     /// where lane i hands its memory to lane i + 1. `initial` is the memory trial `first`
-    /// reads (on resume). Returns once every lane has set up its instances.
+    /// reads (on resume). Every lane counts its steps on `bar` and shows its FMUs' messages
+    /// through (a clone of) `console`. Returns once every lane has set up its instances.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start<'scope, 'env: 'scope>(
         scope: &'scope std::thread::Scope<'scope, 'env>,
@@ -225,7 +226,7 @@ impl Lanes {
         logging: bool,
         (first, last): (usize, usize),
         initial: Option<&'env [Vec<f64>]>,
-        bar: &'env ProgressBar,
+        (bar, console): (&'env ProgressBar, &FmuConsole),
         abort: &'env AtomicBool,
     ) -> Result<Self, CampaignError> {
         // Lane i starts trial k + n only after lane i + 1, running trial k + 1, has taken
@@ -248,7 +249,6 @@ impl Lanes {
         }
         let (tx, reports) = std::sync::mpsc::channel();
         let mut fmus = Some(fmus);
-        let console = FmuConsole::new(bar.clone(), scenario.fmus.len());
         for i in 0..n {
             let prev = (i + n - 1) % n;
             let ends = Ends {
