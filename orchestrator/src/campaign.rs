@@ -900,7 +900,7 @@ pub fn run_campaign(
                 opts.fmu_logging,
                 (first, last),
                 initial.as_deref(),
-                (&bar, &console),
+                &console,
                 &abort,
             )?),
             None => None,

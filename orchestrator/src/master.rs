@@ -380,6 +380,11 @@ impl FmuConsole {
         self.campaign = format!("{}: ", dir.display());
         self
     }
+
+    /// The progress bar it prints through.
+    pub fn bar(&self) -> &ProgressBar {
+        &self.bar
+    }
 }
 
 impl<'s> Master<'s> {
@@ -893,11 +898,7 @@ fn call_failed(
 #[inline(never)]
 fn step_warned(inst: &Instance, trial: usize, time: f64, console: &FmuConsole, k: usize) {
     let log = inst.take_log();
-    if console
-        .warned
-        .get(k)
-        .is_none_or(|w| w.swap(true, Ordering::Relaxed))
-    {
+    if console.warned[k].swap(true, Ordering::Relaxed) {
         return;
     }
     let warnings: Vec<_> = log

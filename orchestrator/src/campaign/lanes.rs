@@ -14,7 +14,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, sync_channel};
 
 use fmi2_import::Fmu;
-use indicatif::ProgressBar;
 
 use super::{CampaignError, TrialSummary};
 use crate::master::{CHUNK_STEPS, FmuConsole, Master, MasterError, MemoryLink, Stopped};
@@ -103,9 +102,8 @@ struct Shared<'a> {
     first: usize,
     last: usize,
     lanes: usize,
-    bar: &'a ProgressBar,
     abort: &'a AtomicBool,
-    /// Where every lane's master shows its FMUs' messages.
+    /// Where every lane's master shows its FMUs' messages, and its bar counts the steps.
     console: FmuConsole,
 }
 
@@ -186,7 +184,7 @@ fn lane(
             &mut signals,
             |n| {
                 if n % 1000 == 999 {
-                    sh.bar.inc(1000);
+                    sh.console.bar().inc(1000);
                 }
             },
             &mut link,
@@ -215,8 +213,8 @@ impl Lanes {
     /// Starts `n` lanes for trials `first..last` in `scope`: lane i runs the trials
     /// `first + i (mod n)`, the first on `fmus`, the others on copies they open, in a ring
     /// where lane i hands its memory to lane i + 1. `initial` is the memory trial `first`
-    /// reads (on resume). Every lane counts its steps on `bar` and shows its FMUs' messages
-    /// through (a clone of) `console`. Returns once every lane has set up its instances.
+    /// reads (on resume). Every lane counts its steps on `console`'s bar and shows its FMUs'
+    /// messages through (a clone of) it. Returns once every lane has set up its instances.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start<'scope, 'env: 'scope>(
         scope: &'scope std::thread::Scope<'scope, 'env>,
@@ -226,7 +224,7 @@ impl Lanes {
         logging: bool,
         (first, last): (usize, usize),
         initial: Option<&'env [Vec<f64>]>,
-        (bar, console): (&'env ProgressBar, &FmuConsole),
+        console: &FmuConsole,
         abort: &'env AtomicBool,
     ) -> Result<Self, CampaignError> {
         // Lane i starts trial k + n only after lane i + 1, running trial k + 1, has taken
@@ -263,7 +261,6 @@ impl Lanes {
                 first,
                 last,
                 lanes: n,
-                bar,
                 abort,
                 console: console.clone(),
             };
