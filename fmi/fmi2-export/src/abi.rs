@@ -2,8 +2,8 @@
 //! function to, one `pub unsafe fn` per FMI 2.0 Co-Simulation function.
 //!
 //! Each instance function goes through one shared guard, in this order:
-//! 1. the component must be a live instance of `M` (NULL or foreign → fmi2Error, no log
-//!    possible since there is no logger to log to);
+//! 1. the component must be a live instance of `M` (NULL, freed, made up or foreign →
+//!    fmi2Error, no log possible since there is no logger to log to);
 //! 2. the FMI 2.0 CS allowed-states table ([`Function::allowed_in`]): a violation logs
 //!    `"fmi2DoStep: illegal call sequence in state Instantiated"` and returns fmi2Error;
 //! 3. the body runs inside `catch_unwind`: it checks every pointer argument for NULL and
@@ -22,8 +22,9 @@
 //! fmi2Discard from fmi2DoStep moves it to `StepFailed`.
 //!
 //! # Safety contract of every wrapper
-//! The arguments are those of the FMI 2.0 C function: the component is NULL or a pointer
-//! returned by [`instantiate`] and not yet freed, used by one thread at a time; each
+//! The arguments are those of the FMI 2.0 C function: the component may hold any value,
+//! since only a handle [`instantiate`] issued and fmi2FreeInstance has not retired is
+//! followed (see `handles`), and a live instance is used by one thread at a time; each
 //! array pointer is NULL or valid for the length passed with it; each pointer to a
 //! single value is NULL or valid for it; strings are NULL or NUL-terminated. An FMU state
 //! (`fmi2FMUstate`) may hold any value, since only one this library handed out and has not
@@ -33,6 +34,7 @@ use std::ffi::{CStr, c_char, c_void};
 use std::panic::{self, AssertUnwindSafe};
 use std::ptr;
 
+use crate::handles;
 use crate::instance::{Access, Failure, Instance, LogSink, Outcome};
 use crate::snapshot::{DecodeError, NotOurs, Snapshot};
 use crate::state::{FmiState, Function};
@@ -61,7 +63,8 @@ unsafe fn guard<M: Model>(
     function: Function,
     body: impl FnOnce(&mut Instance<M>) -> Outcome,
 ) -> Fmi2Status {
-    // SAFETY: `c` is NULL, foreign, or a live instance used by this thread only.
+    // SAFETY: any value is checked against the live handles; a live instance is used by
+    // this thread only (module contract).
     let Some(inst) = (unsafe { Instance::<M>::from_component(c) }) else {
         return Status::Error.into();
     };
@@ -318,17 +321,27 @@ pub unsafe fn instantiate<M: Model>(
             return ptr::null_mut();
         }
     };
+    let Some(reservation) = handles::reserve() else {
+        return fail(
+            &name,
+            format!(
+                "{} instances of this FMU library are alive, the most it allows; \
+                 free one (fmi2FreeInstance) before instantiating another",
+                handles::MAX_LIVE
+            ),
+        );
+    };
     let inst = Box::new(Instance::new(model, name, sink, fmi_bool(logging_on)));
     inst.log_as(
         Status::Ok,
         "fmi2Instantiate",
         &format!("instance of {} created", M::MODEL_IDENTIFIER),
     );
-    Box::into_raw(inst).cast::<c_void>()
+    reservation.issue(Box::into_raw(inst).cast::<c_void>())
 }
 
-/// fmi2FreeInstance: releases the instance and everything it owns. NULL (or a pointer
-/// that is not a live instance of `M`) is a no-op.
+/// fmi2FreeInstance: releases the instance and everything it owns. NULL, or a component
+/// that is not a live instance of `M` (freed already, say), is a no-op.
 ///
 /// # Safety
 /// See the module's safety contract; the master gives up `c` with this call.
@@ -339,10 +352,14 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     };
     // Allowed in every state, Fatal included (see `state`), so no table check here.
     inst.event(Function::FreeInstance, "instance freed");
-    inst.invalidate();
-    // SAFETY: the tag proved `c` came from `Box::into_raw` in `instantiate::<M>`, and
-    // the reference `inst` is no longer used.
-    let boxed = unsafe { Box::from_raw(c.cast::<Instance<M>>()) };
+    // The handle is retired before the memory goes, so no call reaches the instance.
+    let Some(p) = handles::release(c) else {
+        return;
+    };
+    // SAFETY: `p` is the instance `from_component` found, a `Box::into_raw` of an
+    // `Instance<M>` in `instantiate::<M>`; its handle is retired, so no function reaches
+    // it again, and the reference `inst` is no longer used.
+    let boxed = unsafe { Box::from_raw(p.cast::<Instance<M>>()) };
     // A panicking Drop in the model must not unwind into the master; the memory is then
     // leaked, the only safe option once a destructor has failed.
     let _ = panic::catch_unwind(AssertUnwindSafe(move || drop(boxed)));

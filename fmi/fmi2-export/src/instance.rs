@@ -5,6 +5,7 @@
 
 use std::ffi::{CStr, CString, c_void};
 
+use crate::handles;
 use crate::state::{FmiState, Function};
 use fmi2_sys::{Fmi2ComponentEnvironment, Fmi2Status, Fmi2String, Status};
 use fmu_core::{
@@ -84,9 +85,10 @@ impl LogSink {
     }
 }
 
-/// Identifies memory this glue handed out as an instance or snapshot of model `M`, so
-/// a pointer from another model (or a snapshot passed as a component) is rejected
-/// instead of being reinterpreted. It is the first field of a `#[repr(C)]` struct.
+/// Which model, and which kind of object, a live instance or snapshot of this library is.
+/// The tables of live handles (`handles`) and states (`snapshot::LIVE`) prove that a
+/// pointer is one this glue allocated and has not freed; the tag, the first field of a
+/// `#[repr(C)]` struct, tells the models built into one library apart.
 #[repr(C)]
 #[derive(Debug)]
 pub(crate) struct Tag {
@@ -111,8 +113,8 @@ impl Tag {
     /// Whether `ptr` starts with the tag of model `M` and `magic`.
     ///
     /// # Safety
-    /// `ptr` is NULL, or points to at least `size_of::<Tag>()` readable bytes (true of
-    /// every component and snapshot pointer this glue hands out).
+    /// `ptr` is NULL, or points to a live instance or snapshot this glue allocated (one of
+    /// the two tables lists it).
     pub(crate) unsafe fn matches<M: Model>(ptr: *const c_void, magic: u64) -> bool {
         let tag = ptr.cast::<Tag>();
         if tag.is_null() || !tag.is_aligned() {
@@ -130,12 +132,6 @@ impl Tag {
         // The same string in this library is the same pointer: every call on a live
         // instance takes that shortcut instead of comparing the GUID byte by byte.
         std::ptr::eq(guid, M::GUID) || guid == M::GUID
-    }
-
-    /// Clears the magic before the memory is released, so a stale pointer passed
-    /// again is rejected as long as the memory is not reused.
-    pub(crate) fn invalidate(&mut self) {
-        self.magic = 0;
     }
 }
 
@@ -346,25 +342,26 @@ impl<M: Model> Instance<M> {
         }
     }
 
-    /// The instance behind a component pointer, if it is a live instance of `M`.
+    /// The instance behind a component handle, if it is a live instance of `M`.
+    ///
+    /// Any pointer value is accepted: only a handle the table issued and has not retired
+    /// is followed (see [`handles`]), so a freed, made-up or foreign component is refused
+    /// without reading its memory.
     ///
     /// # Safety
-    /// `c` is NULL, or a pointer the master received from `instantiate::<M>` (or from
-    /// another FMU: the tag check rejects those) that has not been freed, and no other
-    /// reference to the instance is live (FMI forbids concurrent calls on one instance).
+    /// No other reference to the instance is live during `'a`, and no other thread frees
+    /// it meanwhile (FMI forbids concurrent calls on one instance).
+    #[inline]
     pub(crate) unsafe fn from_component<'a>(c: *mut c_void) -> Option<&'a mut Self> {
-        // SAFETY: forwarded contract of this function.
-        if !unsafe { Tag::matches::<M>(c, INSTANCE_MAGIC) } {
+        let p = handles::instance(c)?;
+        // SAFETY: a live handle's instance is a `Box<Instance<_>>` of some model of this
+        // library, alive until its handle is released: it starts with a readable `Tag`.
+        if !unsafe { Tag::matches::<M>(p, INSTANCE_MAGIC) } {
             return None;
         }
-        // SAFETY: the tag proves `c` came from `Box::into_raw` of an `Instance<M>`
-        // that is still alive; exclusivity is part of this function's contract.
-        Some(unsafe { &mut *c.cast::<Self>() })
-    }
-
-    /// Marks the instance as freed (see [`Tag::invalidate`]).
-    pub(crate) fn invalidate(&mut self) {
-        self.tag.invalidate();
+        // SAFETY: the tag proves it is an `Instance<M>`; exclusivity is part of this
+        // function's contract.
+        Some(unsafe { &mut *p.cast::<Self>() })
     }
 
     /// Logs `"<function>: <text>"`. Errors and fatal errors always reach the logger so

@@ -12,13 +12,18 @@
 //!    FMU-state snapshots around the model's own saved bytes.
 //!
 //! Every piece of simulation state lives in its instance or snapshot, so any number of
-//! instances can run in one process and in different threads. The one global is the table
-//! of live FMU-state snapshots, which lets fmi2FreeInstance free the states its instance
-//! allocated and refuses a freed state instead of reading it; no step touches it.
+//! instances can run in one process and in different threads. There are two globals, both
+//! tables of what the glue handed out and has not freed, so that a freed, made-up or
+//! foreign pointer is refused without being read:
+//! - `handles`: the live instances. A component is a handle into it, not the instance's
+//!   address; every call looks it up without a lock (two loads).
+//! - `snapshot::LIVE`: the live FMU-state snapshots, which also lets fmi2FreeInstance
+//!   free the states its instance allocated. No step touches it.
 
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 pub mod abi;
+mod handles;
 mod instance;
 mod macros;
 mod snapshot;

@@ -178,6 +178,69 @@ fn foreign_component_is_rejected_without_touching_it() {
 }
 
 #[test]
+fn a_freed_component_is_refused_for_every_function_and_never_read() {
+    let donor = Donor::new();
+    let mut fmu = Fmu::initialized("freed");
+    let stale = fmu.c;
+    fmu.free();
+    // A new instance may take the memory the freed one had; the stale handle must not
+    // reach it.
+    let fresh = Fmu::initialized("fresh");
+    assert_ne!(fresh.c, stale, "a handle is not reissued at once");
+    for f in Function::ALL {
+        if f != Function::FreeInstance {
+            assert_eq!(call(stale, f, &donor), Status::Error, "{}", f.name());
+        }
+    }
+    // SAFETY: any value may be passed; a freed handle is a no-op ...
+    unsafe { abi::free_instance::<Oscillator>(stale) };
+    // SAFETY: ... and is not an instance.
+    assert_eq!(unsafe { abi::instance_state::<Oscillator>(stale) }, None);
+    assert_eq!(fresh.state(), Some(FmiState::StepComplete));
+    assert!(
+        fresh.log.messages().iter().all(|m| !m.contains("Error")),
+        "the calls on the stale handle did not reach the new instance: {:?}",
+        fresh.log.messages()
+    );
+    assert_eq!(fresh.do_step(0.0, 0.01), Status::Ok);
+}
+
+/// Laid out as the glue's tag of a live Oscillator instance, with room behind it.
+#[repr(C)]
+struct Forged {
+    magic: u64,
+    guid: &'static str,
+    rest: [u8; 4096],
+}
+
+#[test]
+fn a_forged_instance_tag_is_not_an_instance() {
+    // Before components were handles, memory that began with an instance's tag was taken
+    // for an instance and written to.
+    let forged = Forged {
+        magic: u64::from_le_bytes(*b"FMI2INST"),
+        guid: GUID,
+        rest: [0xA5; 4096],
+    };
+    let c = ptr::from_ref(&forged).cast_mut().cast();
+    let donor = Donor::new();
+    for f in Function::ALL {
+        if f != Function::FreeInstance {
+            assert_eq!(call(c, f, &donor), Status::Error, "{}", f.name());
+        }
+    }
+    // SAFETY: any value may be passed; this one is not an instance.
+    unsafe { abi::free_instance::<Oscillator>(c) };
+    // SAFETY: as above.
+    assert_eq!(unsafe { abi::instance_state::<Oscillator>(c) }, None);
+    assert_eq!(forged.magic, u64::from_le_bytes(*b"FMI2INST"));
+    assert!(
+        forged.rest.iter().all(|&b| b == 0xA5),
+        "nothing was written"
+    );
+}
+
+#[test]
 fn null_arrays_with_nvr_are_errors_and_nvr_zero_is_ok() {
     let fmu = Fmu::initialized("nulls");
     let mut value = [0.0];
