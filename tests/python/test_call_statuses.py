@@ -97,3 +97,73 @@ def test_a_stiff_plant_step_returns_a_warning_once_and_the_run_goes_on(
     assert len(warnings) == 1, printed
     assert "fmi2DoStep: step from 0 by 0.001 taken: the adaptive integrator took" in warnings[0]
     assert "friction_velocity" in warnings[0]
+
+
+#: Runs in its own interpreter: before components were handles, the made-up one crashed it.
+STALE_CALLS = """
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference
+
+fmu = sys.argv[1]
+md = read_model_description(fmu)
+folder = extract(fmu)
+def slave(name):
+    s = FMU2Slave(guid=md.guid, unzipDirectory=folder,
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+    s.instantiate()
+    return s
+freed, live = slave("freed"), slave("live")
+stale = freed.component
+freed.freeInstance()  # the library stays loaded: `live` holds it too
+vr = (md.modelVariables[0].valueReference,)
+calls = {
+    "fmi2DoStep": lambda c: live.fmi2DoStep(c, 0.0, 1e-3, fmi2True),
+    "fmi2SetupExperiment": lambda c: live.fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0),
+    "fmi2GetReal": lambda c: live.fmi2GetReal(
+        c, (fmi2ValueReference * 1)(*vr), 1, (fmi2Real * 1)()),
+    "fmi2Reset": lambda c: live.fmi2Reset(c),
+}
+for component in (stale, 0x10, 0x7FFF_0000_1230):
+    for name, call in calls.items():
+        try:
+            call(component)
+            print(f"{name}({component:#x}) returned OK")
+        except FMICallException as e:
+            print(f"{name}({component:#x}) -> {e.status}")
+    live.fmi2FreeInstance(component)  # not an instance: nothing happens
+live.setupExperiment(startTime=0.0)
+live.enterInitializationMode()
+live.exitInitializationMode()
+for k in range(3):
+    live.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+print("live instance stepped to", live.getReal(vr))
+live.terminate()
+live.freeInstance()
+"""
+
+
+@pytest.mark.parametrize("which", ["plant", "controller"])
+def test_a_freed_or_made_up_component_gets_an_error_not_a_crash(
+    which: str, plant_fmu: Path, controller_fmu: Path
+) -> None:
+    """fmpy calls an FMU with the component of an instance it freed and with two made-up
+    pointers: each call returns fmi2Error (3), and the other instance of the same library
+    runs on."""
+    import subprocess
+    import sys
+
+    fmu = plant_fmu if which == "plant" else controller_fmu
+    run = subprocess.run(
+        [sys.executable, "-c", STALE_CALLS, str(fmu)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, f"exit {run.returncode}: {run.stdout}\n{run.stderr}"
+    lines = run.stdout.splitlines()
+    refused = [line for line in lines if line.endswith(" -> 3")]
+    assert len(refused) == 12, lines
+    assert not any("returned OK" in line for line in lines), lines
+    assert lines[-1].startswith("live instance stepped to"), lines
