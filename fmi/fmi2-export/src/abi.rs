@@ -365,7 +365,7 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     let _ = panic::catch_unwind(AssertUnwindSafe(move || drop(boxed)));
     // SAFETY: `c` was an instance of `M`, now freed; the master holds no reference into
     // its FMU states during this call (module contract).
-    let _ = panic::catch_unwind(|| unsafe { Snapshot::<M>::free_owned_by(c as usize) });
+    let _ = panic::catch_unwind(|| unsafe { Snapshot::<M>::free_owned_by(c.addr()) });
 }
 
 /// fmi2SetDebugLogging: `nCategories = 0` switches every category of
@@ -820,7 +820,7 @@ unsafe fn store_snapshot<M: Model>(
     owner: Fmi2Component,
 ) -> Result<(), Failure> {
     if slot.is_null() {
-        *slot = snap.into_raw(owner as usize);
+        *slot = snap.into_raw(owner.addr());
     } else {
         // SAFETY: forwarded contract of this function.
         *unsafe { snapshot_arg::<M>(*slot, "*FMUstate") }? = snap;
@@ -972,7 +972,7 @@ pub unsafe fn de_serialize_fmu_state<M: Model>(
             DecodeError::Invalid(message) => Failure::error(message),
             DecodeError::Model(e) => Failure::from(e),
         })?;
-        *slot = snap.into_raw(c as usize);
+        *slot = snap.into_raw(c.addr());
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.

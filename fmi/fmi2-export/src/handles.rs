@@ -27,8 +27,10 @@ use std::sync::atomic::{AtomicPtr, AtomicU8, AtomicUsize, Ordering};
 
 /// Instances alive at once per loaded copy of the library. A power of two.
 pub(crate) const MAX_LIVE: usize = 4096;
-/// Handles each slot cycles through before one repeats. A power of two.
-const GENERATIONS: usize = 256;
+/// Handles each slot cycles through before one repeats. A power of two. Under Miri, which
+/// takes about a second per megabyte each time the region's address is taken, four: the
+/// logic is the same for any power of two.
+const GENERATIONS: usize = if cfg!(miri) { 4 } else { 256 };
 /// Distinct handles, and bytes of [`HANDLE_SPACE`].
 const HANDLES: usize = MAX_LIVE * GENERATIONS;
 
@@ -63,13 +65,19 @@ static NEXT: AtomicUsize = AtomicUsize::new(0);
 /// handle names the slot until [`Reservation::issue`].
 const RESERVED: *mut c_void = ptr::dangling_mut();
 
+/// The region's raw address (no reference to it is made: nothing may read it). Handles are
+/// compared by `addr()`, which, unlike an `as` cast, does not expose their provenance.
+fn space() -> *mut c_void {
+    (&raw const HANDLE_SPACE).cast_mut().cast::<c_void>()
+}
+
 fn base() -> usize {
-    HANDLE_SPACE.as_ptr() as usize
+    space().addr()
 }
 
 /// The slot a handle names, or `None` for any address outside [`HANDLE_SPACE`].
 fn slot_of(handle: *mut c_void) -> Option<&'static Slot> {
-    let k = (handle as usize).wrapping_sub(base());
+    let k = handle.addr().wrapping_sub(base());
     (k < HANDLES).then(|| &SLOTS[k % MAX_LIVE])
 }
 
@@ -106,7 +114,7 @@ impl Reservation {
         // Release: a thread that loads this handle sees the instance pointer and the
         // instance's contents.
         slot.handle.store(handle, Ordering::Release);
-        let issued = HANDLE_SPACE[self.k].as_ptr().cast::<c_void>();
+        let issued = space().wrapping_byte_add(self.k);
         std::mem::forget(self);
         issued
     }
@@ -129,7 +137,7 @@ impl Drop for Reservation {
 #[inline]
 pub(crate) fn instance(handle: *mut c_void) -> Option<*mut c_void> {
     let slot = slot_of(handle)?;
-    if slot.handle.load(Ordering::Acquire) != handle as usize {
+    if slot.handle.load(Ordering::Acquire) != handle.addr() {
         return None;
     }
     Some(slot.instance.load(Ordering::Relaxed))
@@ -142,7 +150,7 @@ pub(crate) fn release(handle: *mut c_void) -> Option<*mut c_void> {
     // The handle first, so no call finds the instance any more; then the slot, so it can
     // be taken again.
     slot.handle
-        .compare_exchange(handle as usize, 0, Ordering::Acquire, Ordering::Relaxed)
+        .compare_exchange(handle.addr(), 0, Ordering::Acquire, Ordering::Relaxed)
         .ok()?;
     Some(slot.instance.swap(ptr::null_mut(), Ordering::Release))
 }
@@ -168,9 +176,9 @@ mod tests {
         let outside = [
             ptr::null_mut(),
             ptr::from_mut(&mut value).cast::<c_void>(),
-            (base() - 1) as *mut c_void,
-            (base() + HANDLES) as *mut c_void,
-            usize::MAX as *mut c_void,
+            ptr::without_provenance_mut(base() - 1),
+            ptr::without_provenance_mut(base() + HANDLES),
+            ptr::without_provenance_mut(usize::MAX),
         ];
         for h in outside {
             assert_eq!(instance(h), None, "{h:?}");
@@ -184,9 +192,9 @@ mod tests {
         let p = ptr::from_mut(&mut value).cast::<c_void>();
         let h = reserve().expect("a free slot").issue(p);
         // The same slot's other generations (its neighbours may be live in other tests).
-        for other in [(h as usize) + MAX_LIVE, (h as usize).wrapping_sub(MAX_LIVE)] {
+        for other in [h.addr() + MAX_LIVE, h.addr().wrapping_sub(MAX_LIVE)] {
             if other.wrapping_sub(base()) < HANDLES {
-                assert_eq!(instance(other as *mut c_void), None);
+                assert_eq!(instance(ptr::without_provenance_mut(other)), None);
             }
         }
         assert_eq!(release(h), Some(p));

@@ -47,7 +47,7 @@ fn the_table_holds_max_live_instances_refuses_one_more_with_a_message_and_recove
         assert!(!c.is_null(), "instance {} refused: {log:?}", live.len());
         live.push(c);
     }
-    let distinct: HashSet<usize> = live.iter().map(|&c| c as usize).collect();
+    let distinct: HashSet<usize> = live.iter().map(|&c| c.addr()).collect();
     assert_eq!(distinct.len(), MAX_LIVE);
 
     let (c, log) = instantiate(&name);
@@ -84,12 +84,12 @@ fn a_freed_handle_is_not_handed_out_again_for_many_instantiations() {
     free(first);
     // Freed at once, so every instance could take the first one's memory: the handle
     // still differs, through every slot and again in each slot's later generations.
-    let mut seen = HashSet::from([first as usize]);
+    let mut seen = HashSet::from([first.addr()]);
     let rounds = if cfg!(miri) { 50 } else { 3 * MAX_LIVE };
     for _ in 0..rounds {
         let (c, log) = instantiate(&name);
         assert!(!c.is_null(), "{log:?}");
-        assert!(seen.insert(c as usize), "handle {c:?} handed out twice");
+        assert!(seen.insert(c.addr()), "handle {c:?} handed out twice");
         free(c);
     }
 }
