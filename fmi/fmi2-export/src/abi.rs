@@ -248,8 +248,10 @@ pub fn get_version<M>() -> *const c_char {
 /// used, the model descriptions declare `canNotUseMemoryManagementFunctions="true"`, and
 /// `stepFinished` is unused as steps are synchronous); `instanceName` NULL or empty;
 /// `fmuType` other than fmi2CoSimulation; `fmuGUID` NULL or different from `M::GUID`; a
-/// panic in `M::new()`. Each case is logged with status fmi2Error when the logger is
-/// usable. `fmuResourceLocation` and `visible` are ignored.
+/// panic in `M::new()`; `handles::MAX_LIVE` instances of this library alive already. Each
+/// case is logged with status fmi2Error when the logger is usable. `fmuResourceLocation`
+/// and `visible` are ignored. The component returned is a handle (see `handles`), not
+/// the instance's address.
 ///
 /// # Safety
 /// `functions` is NULL or points to a valid `fmi2CallbackFunctions` whose logger stays
