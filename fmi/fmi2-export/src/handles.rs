@@ -12,8 +12,9 @@
 //! 3. only then follows the slot's instance pointer.
 //!
 //! A freed handle, a made-up pointer or another library's component is refused in step 1
-//! or 2, and what it points to is never read. That costs two loads on every call, as the
-//! tag did, and needs no lock: a mutex here would be taken by every call of the step loop.
+//! or 2, and what it points to is never read. That adds a range check and two loads to
+//! every call (BENCHMARKS.md, round 45, measured no cost the bench resolves) and needs no
+//! lock: a mutex here would be taken by every call of the step loop.
 //!
 //! Limits: [`MAX_LIVE`] instances can be alive at once in one loaded copy of the library
 //! (fmi2Instantiate refuses more, with a message); and a slot hands out
