@@ -111,11 +111,10 @@ impl Reservation {
     pub(crate) fn issue(self, instance: *mut c_void) -> *mut c_void {
         let slot = &SLOTS[self.k % MAX_LIVE];
         slot.instance.store(instance, Ordering::Relaxed);
-        let handle = base() + self.k;
+        let issued = space().wrapping_byte_add(self.k);
         // Release: a thread that loads this handle sees the instance pointer and the
         // instance's contents.
-        slot.handle.store(handle, Ordering::Release);
-        let issued = space().wrapping_byte_add(self.k);
+        slot.handle.store(issued.addr(), Ordering::Release);
         std::mem::forget(self);
         issued
     }

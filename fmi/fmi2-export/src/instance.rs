@@ -85,47 +85,32 @@ impl LogSink {
     }
 }
 
-/// Which model, and which kind of object, a live instance or snapshot of this library is.
-/// The tables of live handles (`handles`) and states (`snapshot::LIVE`) prove that a
-/// pointer is one this glue allocated and has not freed; the tag, the first field of a
+/// Which model a live instance or snapshot of this library belongs to. The tables of live
+/// handles (`handles`) and states (`snapshot::LIVE`) prove that a pointer is one this glue
+/// allocated and has not freed, and which kind it is; the tag, the first field of a
 /// `#[repr(C)]` struct, tells the models built into one library apart.
 #[repr(C)]
 #[derive(Debug)]
 pub(crate) struct Tag {
-    magic: u64,
     guid: &'static str,
 }
 
-/// [`Tag::magic`] of a live instance.
-pub(crate) const INSTANCE_MAGIC: u64 = u64::from_le_bytes(*b"FMI2INST");
-/// [`Tag::magic`] of a live FMU-state snapshot.
-pub(crate) const SNAPSHOT_MAGIC: u64 = u64::from_le_bytes(*b"FMI2SNAP");
-
 impl Tag {
-    /// The tag of model `M` with the given magic.
-    pub(crate) fn new<M: Model>(magic: u64) -> Self {
-        Self {
-            magic,
-            guid: M::GUID,
-        }
+    /// The tag of model `M`.
+    pub(crate) fn new<M: Model>() -> Self {
+        Self { guid: M::GUID }
     }
 
-    /// Whether `ptr` starts with the tag of model `M` and `magic`.
+    /// Whether `ptr` starts with the tag of model `M`.
     ///
     /// # Safety
     /// `ptr` points to a live instance or snapshot this glue allocated (one of the two
     /// tables lists it), so it is never NULL and always aligned, and is not checked for
     /// either: this runs on every call of the step loop.
     #[inline]
-    pub(crate) unsafe fn matches<M: Model>(ptr: *const c_void, magic: u64) -> bool {
-        let tag = ptr.cast::<Tag>();
+    pub(crate) unsafe fn matches<M: Model>(ptr: *const c_void) -> bool {
         // SAFETY: a live, aligned `Tag` per this function's contract.
-        let magic_found = unsafe { (*tag).magic };
-        if magic_found != magic {
-            return false;
-        }
-        // SAFETY: as above.
-        let guid = unsafe { (*tag).guid };
+        let guid = unsafe { (*ptr.cast::<Tag>()).guid };
         // The same string in this library is the same pointer: every call on a live
         // instance takes that shortcut instead of comparing the GUID byte by byte.
         std::ptr::eq(guid, M::GUID) || guid == M::GUID
@@ -327,7 +312,7 @@ impl<M: Model> Instance<M> {
             }
         }
         Self {
-            tag: Tag::new::<M>(INSTANCE_MAGIC),
+            tag: Tag::new::<M>(),
             model,
             glue: Glue::new(),
             name,
@@ -353,7 +338,7 @@ impl<M: Model> Instance<M> {
         let p = handles::instance(c)?;
         // SAFETY: a live handle's instance is a `Box<Instance<_>>` of some model of this
         // library, alive until its handle is released: it starts with a readable `Tag`.
-        if !unsafe { Tag::matches::<M>(p, INSTANCE_MAGIC) } {
+        if !unsafe { Tag::matches::<M>(p) } {
             return None;
         }
         // SAFETY: the tag proves it is an `Instance<M>`; exclusivity is part of this

@@ -32,7 +32,7 @@ use std::collections::BTreeMap;
 use std::ffi::c_void;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
-use crate::instance::{Glue, SNAPSHOT_MAGIC, Tag};
+use crate::instance::{Glue, Tag};
 use crate::state::FmiState;
 use fmi2_sys::Status;
 use fmu_core::{Model, check_ranges};
@@ -79,7 +79,7 @@ impl<M: Model> Snapshot<M> {
     /// A snapshot of `model` and `glue`.
     pub(crate) fn new(model: M, glue: Glue) -> Self {
         Self {
-            tag: Tag::new::<M>(SNAPSHOT_MAGIC),
+            tag: Tag::new::<M>(),
             model,
             glue,
         }
@@ -107,7 +107,7 @@ impl<M: Model> Snapshot<M> {
         }
         // SAFETY: listed in `LIVE`, so `p` came from `into_raw` of a snapshot of some model
         // of this library and has not been freed: it points to a readable `Tag`.
-        if !unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
+        if !unsafe { Tag::matches::<M>(p) } {
             return Err(NotOurs::OtherModel);
         }
         // SAFETY: the tag proves it is a live `Snapshot<M>`; exclusive per the contract.
@@ -141,7 +141,7 @@ impl<M: Model> Snapshot<M> {
     pub(crate) unsafe fn free_owned_by(owner: usize) {
         for p in take_owned_by(owner) {
             // SAFETY: was listed in `LIVE`, so allocated and not yet freed: a readable tag.
-            if unsafe { Tag::matches::<M>(p, SNAPSHOT_MAGIC) } {
+            if unsafe { Tag::matches::<M>(p) } {
                 // SAFETY: a `Snapshot<M>` from `Box::into_raw`, unlisted above, so freed
                 // only here; its pointer is no longer accepted by any function.
                 drop(unsafe { Box::from_raw(p.cast::<Self>()) });
