@@ -135,6 +135,34 @@ fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {
     }
 }
 
+/// A DLL's bytes depend on its code alone, not on when it was linked: the PE headers'
+/// link time would make every relink of the same code another `.fmu`, and `run --resume`
+/// refuses a campaign whose FMU bytes changed (`.cargo/config.toml`,
+/// `--no-insert-timestamp`). Both places ld writes it are checked: the COFF header and the
+/// export directory.
+#[test]
+fn win64_dlls_carry_no_link_time() {
+    use object::LittleEndian as LE;
+    for id in FMUS {
+        let fmu = built_fmu(id);
+        let dll_name = format!("binaries/win64/{id}.dll");
+        let dll = archive_entry(&fmu, &dll_name);
+        let pe = object::read::pe::PeFile64::parse(dll.as_slice())
+            .unwrap_or_else(|e| panic!("{dll_name} in {}: not a PE32+ file: {e}", fmu.display()));
+        let header = pe.nt_headers().file_header.time_date_stamp.get(LE);
+        assert_eq!(header, 0, "{dll_name}: COFF header time stamp {header:#x}");
+        let exports = pe
+            .export_table()
+            .unwrap_or_else(|e| panic!("{dll_name}: unreadable export table: {e}"))
+            .unwrap_or_else(|| panic!("{dll_name}: no export table"));
+        let export = exports.directory().time_date_stamp.get(LE);
+        assert_eq!(
+            export, 0,
+            "{dll_name}: export directory time stamp {export:#x}"
+        );
+    }
+}
+
 /// `orchestrator.exe` as `cargo xtask test` prepared it.
 fn wine_orchestrator() -> PathBuf {
     let exe = std::env::var_os("CKCM_WINE_ORCHESTRATOR")
