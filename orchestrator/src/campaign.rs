@@ -330,6 +330,36 @@ struct Progress {
     fingerprint: String,
 }
 
+fn read_progress(file: &Path) -> Result<Progress, String> {
+    let text = fs::read_to_string(file).map_err(|e| format!("cannot read progress.toml: {e}"))?;
+    toml::from_str(&text).map_err(|e| format!("progress.toml: {e}"))
+}
+
+impl Fingerprints {
+    fn matches(&self, p: &Progress) -> bool {
+        p.fingerprint == self.current || p.fingerprint == self.earlier
+    }
+}
+
+/// Whether the campaign in `dir` was begun from `scenario` and its FMUs as they are now,
+/// which `--resume` requires; `None` if `dir` holds no campaign (no `progress.toml`).
+/// A sweep keeps its finished cases on resume and asks this of them.
+pub(crate) fn begun_with(
+    dir: &Path,
+    scenario: &Scenario,
+    text: &str,
+) -> Result<Option<bool>, CampaignError> {
+    let file = dir.join("progress.toml");
+    if !file.exists() {
+        return Ok(None);
+    }
+    let p = read_progress(&file).map_err(|message| CampaignError::Resume {
+        dir: dir.to_path_buf(),
+        message,
+    })?;
+    Ok(Some(fingerprint(scenario, text)?.matches(&p)))
+}
+
 /// The CSV recording of trial `k` in campaign folder `dir`.
 pub fn trial_csv(dir: &Path, k: usize) -> PathBuf {
     trial_file(dir, k, RecordFormat::Csv)
@@ -746,11 +776,8 @@ pub fn run_campaign(
             dir: dir.clone(),
             message,
         };
-        let text = fs::read_to_string(&progress_file)
-            .map_err(|e| resume_err(format!("cannot read progress.toml: {e}")))?;
-        let p: Progress =
-            toml::from_str(&text).map_err(|e| resume_err(format!("progress.toml: {e}")))?;
-        if p.fingerprint != fps.current && p.fingerprint != fps.earlier {
+        let p = read_progress(&progress_file).map_err(resume_err)?;
+        if !fps.matches(&p) {
             return Err(resume_err(
                 "it holds a campaign of a different scenario or different FMUs".into(),
             ));

@@ -266,6 +266,91 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
     }
 }
 
+/// A resumed sweep keeps its finished cases, so it refuses to go on once the FMUs or the
+/// base scenario changed under them (as `run --resume` refuses a campaign), and goes on once
+/// they are restored. Before this check, the resumed cases ran with the new FMUs beside
+/// cases of the old ones.
+#[test]
+fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 3);
+    let plant = tmp.path().join("CkcmPlant.fmu");
+    fs::copy(built_fmu("CkcmPlant"), &plant).unwrap();
+    let base_file = tmp.path().join("base.toml");
+    let original = fs::read_to_string(&base_file).unwrap().replace(
+        &format!("{:?}", built_fmu("CkcmPlant")),
+        &format!("{plant:?}"),
+    );
+    assert!(original.contains(&format!("{plant:?}")));
+    fs::write(&base_file, &original).unwrap();
+    let out = tmp.path().join("out");
+    sweep_succeeds(&sweep, &out, 2);
+    let reference = results(&out);
+    let last = out.join("cases/case_0005");
+    fs::remove_dir_all(&last).unwrap();
+    let before = mtimes(&out);
+    let resume = || {
+        let mut cmd = orchestrator();
+        cmd.arg("sweep")
+            .arg(&sweep)
+            .arg("--out")
+            .arg(&out)
+            .arg("--resume");
+        cmd
+    };
+
+    // Other FMU bytes: a file added to the plant's archive.
+    let pristine = fs::read(&plant).unwrap();
+    let edited = tmp.path().join("edited.fmu");
+    common::repackage(&plant, &edited, |_, bytes| Some(bytes));
+    let mut extra = zip::ZipWriter::new_append(
+        fs::File::options()
+            .read(true)
+            .write(true)
+            .open(&edited)
+            .unwrap(),
+    )
+    .unwrap();
+    extra
+        .start_file(
+            "documentation/note.txt",
+            zip::write::SimpleFileOptions::default(),
+        )
+        .unwrap();
+    std::io::Write::write_all(&mut extra, b"rebuilt").unwrap();
+    extra.finish().unwrap();
+    fs::copy(&edited, &plant).unwrap();
+    resume().fails(&["cannot resume", "case 0", "different FMUs", "--out"]);
+    assert!(!last.exists(), "a refused resume ran a case");
+    assert_eq!(
+        mtimes(&out),
+        before,
+        "a refused resume touched a finished case"
+    );
+
+    // Another base scenario: one more metric setting.
+    fs::write(&plant, &pristine).unwrap();
+    fs::write(
+        &base_file,
+        original.replace("[metrics]\n", "[metrics]\nrho = 2.0\n"),
+    )
+    .unwrap();
+    resume().fails(&["cannot resume", "case 0", "base.toml"]);
+    assert!(!last.exists(), "a refused resume ran a case");
+
+    // Both restored: the sweep goes on and ends as the uninterrupted run did.
+    fs::write(&base_file, &original).unwrap();
+    resume().assert().success();
+    assert_eq!(
+        mtimes(&out)[..5],
+        before[..],
+        "finished cases were run again"
+    );
+    for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
+        assert!(want == have, "{name} differs after the resume");
+    }
+}
+
 #[test]
 fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
     let tmp = tempfile::tempdir().unwrap();

@@ -25,7 +25,7 @@ use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
-use crate::campaign::{CampaignError, CampaignOptions, fnv1a, run_campaign};
+use crate::campaign::{CampaignError, CampaignOptions, begun_with, fnv1a, run_campaign};
 use crate::output::{OutputError, write_atomic};
 use crate::scenario::Scenario;
 
@@ -371,7 +371,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let fp = fingerprint(spec);
     let stamp = out.join("sweep.toml");
-    if holds_files(out) {
+    let resuming = holds_files(out);
+    if resuming {
         if !opts.resume {
             return Err(SweepError::Dir {
                 dir: out.clone(),
@@ -392,6 +393,12 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let base = BaseFmus::open(spec)?;
     let plans = plan(spec, &base, out)?;
+    let mine: Vec<usize> = (0..plans.len())
+        .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
+        .collect();
+    if resuming {
+        check_kept_cases(spec, &plans, out, &mine)?;
+    }
     // The stamp first: a folder that holds anything else then always says which sweep it is.
     let create = |dir: PathBuf| {
         fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
@@ -402,9 +409,6 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     create(out.clone())?;
     write_text(&stamp, &spec.text)?;
     create(out.join("cases"))?;
-    let mine: Vec<usize> = (0..plans.len())
-        .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
-        .collect();
     let todo: Vec<usize> = mine
         .iter()
         .copied()
@@ -477,6 +481,47 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         None => write_results(spec, out)?,
     }
     Ok(todo)
+}
+
+/// A resumed sweep keeps its finished cases, so they must come from the base scenario and
+/// FMUs as they are now, as `run --resume` requires of a campaign: otherwise the sweep
+/// would mix cases of two models without a word. The first and the last finished case
+/// are checked, each check reading the FMU files once, so a large sweep resumes at once.
+fn check_kept_cases(
+    spec: &SweepSpec,
+    plans: &[(Scenario, String)],
+    out: &Path,
+    mine: &[usize],
+) -> Result<(), SweepError> {
+    let done: Vec<usize> = mine.iter().copied().filter(|&i| finished(out, i)).collect();
+    let mut checked = done
+        .first()
+        .into_iter()
+        .chain(done.last())
+        .copied()
+        .collect::<Vec<_>>();
+    checked.dedup();
+    for i in checked {
+        let (scenario, text) = &plans[i];
+        let dir = case_dir(out, i);
+        let same = begun_with(&dir, scenario, text).map_err(|source| SweepError::Campaign {
+            case: i,
+            source: Box::new(source),
+        })?;
+        if same == Some(false) {
+            return Err(SweepError::Dir {
+                dir: out.to_path_buf(),
+                message: format!(
+                    "cannot resume: case {i} ({}) was run from a different {} or different \
+                     FMUs than the sweep has now, and resuming would mix its results with \
+                     cases of another model; restore them, or run the sweep into a new --out",
+                    dir.display(),
+                    spec.base.display()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Runs one case as an ordinary campaign; an FMU failure ends the case as failed (its
