@@ -371,8 +371,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let fp = fingerprint(spec);
     let stamp = out.join("sweep.toml");
-    let resuming = holds_files(out);
-    if resuming {
+    if holds_files(out) {
         if !opts.resume {
             return Err(SweepError::Dir {
                 dir: out.clone(),
@@ -396,9 +395,9 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
         .collect();
-    if resuming {
-        check_kept_cases(spec, &plans, out, &mine)?;
-    }
+    // Cases of this run (this shard) that ended in an earlier run, and those left to run.
+    let (ended, todo): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| finished(out, i));
+    check_kept_cases(spec, &plans, out, &ended)?;
     // The stamp first: a folder that holds anything else then always says which sweep it is.
     let create = |dir: PathBuf| {
         fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
@@ -409,13 +408,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     create(out.clone())?;
     write_text(&stamp, &spec.text)?;
     create(out.join("cases"))?;
-    let todo: Vec<usize> = mine
-        .iter()
-        .copied()
-        .filter(|&i| !finished(out, i))
-        .collect();
     // Cases of this run (this shard) finished so far, resumed ones included, for progress.
-    let done = AtomicUsize::new(mine.len() - todo.len());
+    let done = AtomicUsize::new(ended.len());
     let jobs = opts.jobs.clamp(1, todo.len().max(1));
     let next = AtomicUsize::new(0);
     let first_error: Mutex<Option<SweepError>> = Mutex::new(None);
@@ -485,23 +479,19 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
 
 /// A resumed sweep keeps its finished cases, so they must come from the base scenario and
 /// FMUs as they are now, as `run --resume` requires of a campaign: otherwise the sweep
-/// would mix cases of two models without a word. The first and the last finished case
-/// are checked, each check reading the FMU files once, so a large sweep resumes at once.
+/// would mix cases of two models without a word. Of the `ended` cases, the first and the
+/// last are checked, each check reading the FMU files once, so a large sweep resumes at
+/// once.
 fn check_kept_cases(
     spec: &SweepSpec,
     plans: &[(Scenario, String)],
     out: &Path,
-    mine: &[usize],
+    ended: &[usize],
 ) -> Result<(), SweepError> {
-    let done: Vec<usize> = mine.iter().copied().filter(|&i| finished(out, i)).collect();
-    let mut checked = done
-        .first()
-        .into_iter()
-        .chain(done.last())
-        .copied()
-        .collect::<Vec<_>>();
-    checked.dedup();
-    for i in checked {
+    let (Some(&first), Some(&last)) = (ended.first(), ended.last()) else {
+        return Ok(());
+    };
+    for i in std::iter::once(first).chain((last != first).then_some(last)) {
         let (scenario, text) = &plans[i];
         let dir = case_dir(out, i);
         let same = begun_with(&dir, scenario, text).map_err(|source| SweepError::Campaign {
