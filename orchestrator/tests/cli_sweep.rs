@@ -266,6 +266,105 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
     }
 }
 
+/// Gives the FMU at `fmu` other bytes, as a rebuild would: a file added to its archive.
+fn rebuild(fmu: &Path) {
+    let edited = fmu.with_extension("edited");
+    common::repackage(fmu, &edited, |_, bytes| Some(bytes));
+    let mut extra = zip::ZipWriter::new_append(
+        fs::File::options()
+            .read(true)
+            .write(true)
+            .open(&edited)
+            .unwrap(),
+    )
+    .unwrap();
+    extra
+        .start_file(
+            "documentation/note.txt",
+            zip::write::SimpleFileOptions::default(),
+        )
+        .unwrap();
+    std::io::Write::write_all(&mut extra, b"rebuilt").unwrap();
+    extra.finish().unwrap();
+    fs::rename(&edited, fmu).unwrap();
+}
+
+/// Shards run from one sweep file but with other FMU files at the base's paths (a rebuild
+/// between two array tasks) hold cases of two models: `merge` refuses them, naming the FMU
+/// and both folders, and writes nothing. Before the shards recorded their FMUs, it combined
+/// them without a word.
+#[test]
+fn shards_of_other_fmus_do_not_merge() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 1);
+    let plant = tmp.path().join("CkcmPlant.fmu");
+    fs::copy(built_fmu("CkcmPlant"), &plant).unwrap();
+    let base_file = tmp.path().join("base.toml");
+    let text = fs::read_to_string(&base_file).unwrap().replace(
+        &format!("{:?}", built_fmu("CkcmPlant")),
+        &format!("{plant:?}"),
+    );
+    fs::write(&base_file, text).unwrap();
+    let shard = |k: usize, name: &str| {
+        let out = tmp.path().join(name);
+        orchestrator()
+            .arg("sweep")
+            .arg(&sweep)
+            .arg("--out")
+            .arg(&out)
+            .arg("--shard")
+            .arg(format!("{k}/2"))
+            .assert()
+            .success();
+        out
+    };
+    let merge = |shards: &[&Path], out: &Path| {
+        let mut cmd = orchestrator();
+        cmd.args(["sweep", "merge"]).arg(&sweep);
+        for s in shards {
+            cmd.arg(s);
+        }
+        cmd.arg("--out").arg(out);
+        cmd
+    };
+    let old0 = shard(0, "old0");
+    let old1 = shard(1, "old1");
+    rebuild(&plant);
+    let new1 = shard(1, "new1");
+    let merged = tmp.path().join("merged");
+    merge(&[&old0, &new1], &merged).fails(&[
+        "cannot merge",
+        "new1 ran FMU \"plant\" from other bytes than",
+        "old0",
+    ]);
+    assert!(
+        !merged.exists(),
+        "a refused merge wrote {}",
+        merged.display()
+    );
+    // The shards of one set of FMUs merge.
+    merge(&[&old0, &old1], &merged).assert().success();
+    assert!(merged.join("sweep.csv").exists());
+    // A shard of an earlier version names no FMUs: merged, with a warning that says so.
+    let stamp = new1.join("shard.toml");
+    let unnamed: String = fs::read_to_string(&stamp)
+        .unwrap()
+        .split("[fmus]")
+        .next()
+        .unwrap()
+        .to_string();
+    fs::write(&stamp, unnamed).unwrap();
+    let o = merge(&[&old0, &new1], &tmp.path().join("merged_unchecked"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("new1") && err.contains("not checked"),
+        "no warning: {err}"
+    );
+}
+
 /// A resumed sweep keeps its finished cases, so it refuses to go on once the FMUs or the
 /// base scenario changed under them (as `run --resume` refuses a campaign), and goes on once
 /// they are restored. Before this check, the resumed cases ran with the new FMUs beside
@@ -301,25 +400,7 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
 
     // Other FMU bytes: a file added to the plant's archive.
     let pristine = fs::read(&plant).unwrap();
-    let edited = tmp.path().join("edited.fmu");
-    common::repackage(&plant, &edited, |_, bytes| Some(bytes));
-    let mut extra = zip::ZipWriter::new_append(
-        fs::File::options()
-            .read(true)
-            .write(true)
-            .open(&edited)
-            .unwrap(),
-    )
-    .unwrap();
-    extra
-        .start_file(
-            "documentation/note.txt",
-            zip::write::SimpleFileOptions::default(),
-        )
-        .unwrap();
-    std::io::Write::write_all(&mut extra, b"rebuilt").unwrap();
-    extra.finish().unwrap();
-    fs::copy(&edited, &plant).unwrap();
+    rebuild(&plant);
     resume().fails(&["cannot resume", "case 0", "different FMUs", "--out"]);
     assert!(!last.exists(), "a refused resume ran a case");
     assert_eq!(

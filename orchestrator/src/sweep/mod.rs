@@ -6,8 +6,9 @@
 //! - `cases/case_NNNN/`: each case, a complete `run` campaign directory (its `scenario.toml`
 //!   reruns it alone) plus `outcome.toml` (completed or failed, and why) once it has ended;
 //! - `sweep.csv`, `figures/*.svg`, `sweep-report.md`: the results of all cases;
-//! - `shard.toml` instead of the results when only shard K of N was run; `merge` combines
-//!   shard directories into the results an unsharded run writes, byte for byte.
+//! - `shard.toml` instead of the results when only shard K of N was run (the sweep's
+//!   fingerprint, K, N, and each FMU file's fingerprint); `merge` combines shard directories
+//!   of one sweep and one set of FMUs into the results an unsharded run writes, byte for byte.
 //!
 //! Cases are fixed by the sweep file alone (random draws come from its seed), so every shard
 //! and every resume agrees on what case i is.
@@ -149,6 +150,23 @@ impl BaseFmus {
             fmus.push((name.to_string(), abs, fmu.model_description().clone()));
         }
         Ok(BaseFmus { fmus })
+    }
+
+    /// Each FMU's name and the [`fnv1a`] of its file's bytes, as a shard records them: shards
+    /// run by cluster tasks may each have found other FMU files at the base's paths, and
+    /// `merge` must not combine cases of two models.
+    fn digests(&self, spec: &SweepSpec) -> Result<toml::Table, SweepError> {
+        let mut table = toml::Table::new();
+        for (name, path, _) in &self.fmus {
+            let bytes = fs::read(path).map_err(|e| SweepError::Fmu {
+                file: spec.base.clone(),
+                fmu: path.clone(),
+                message: e.to_string(),
+            })?;
+            let digest = fnv1a(0xcbf2_9ce4_8422_2325, &bytes);
+            table.insert(name.clone(), toml::Value::String(format!("{digest:016x}")));
+        }
+        Ok(table)
     }
 
     fn md(&self, path: &Path) -> Result<ModelDescription, String> {
@@ -391,6 +409,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         }
     }
     let base = BaseFmus::open(spec)?;
+    // Taken before any case runs, so the stamp names the FMUs the cases ran with.
+    let digests = base.digests(spec)?;
     let plans = plan(spec, &base, out)?;
     let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
@@ -468,10 +488,19 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         );
     }
     match opts.shard {
-        Some((k, n)) => write_text(
-            &out.join("shard.toml"),
-            &format!("fingerprint = \"{fp}\"\nshard = {k}\nshards = {n}\n"),
-        )?,
+        Some((k, n)) => {
+            let stamp = ShardStamp {
+                fingerprint: fp,
+                shard: k,
+                shards: n,
+                fmus: Some(digests),
+            };
+            let text = toml::to_string(&stamp).map_err(|e| SweepError::Dir {
+                dir: out.clone(),
+                message: format!("shard.toml: {e}"),
+            })?;
+            write_text(&out.join("shard.toml"), &text)?
+        }
         None => write_results(spec, out)?,
     }
     Ok(todo)
@@ -572,11 +601,14 @@ fn run_case(
     Ok(failure)
 }
 
-#[derive(Debug, serde::Deserialize)]
+/// `shard.toml`: which sweep and shard a folder holds, and the FMUs its cases ran with
+/// (absent in shards of earlier versions).
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
 struct ShardStamp {
     fingerprint: String,
     shard: usize,
     shards: usize,
+    fmus: Option<toml::Table>,
 }
 
 /// Combines shard directories of `spec` into `out`: copies every case and writes the results
@@ -593,6 +625,9 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
     let fp = fingerprint(spec);
     let mut seen: Vec<Option<&Path>> = Vec::new();
     let mut total = None;
+    // The first shard that named its FMUs, and the FMUs it named.
+    let mut first_fmus: Option<(&Path, toml::Table)> = None;
+    let mut unnamed = Vec::new();
     for dir in shard_dirs {
         let stamp_path = dir.join("shard.toml");
         let text = fs::read_to_string(&stamp_path).map_err(|e| {
@@ -630,6 +665,32 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
             )));
         }
         seen[s.shard] = Some(dir);
+        match (s.fmus, &first_fmus) {
+            (None, _) => unnamed.push(dir.display().to_string()),
+            (Some(fmus), None) => first_fmus = Some((dir, fmus)),
+            (Some(fmus), Some((first, want))) => {
+                if let Some(name) = fmus
+                    .keys()
+                    .chain(want.keys())
+                    .find(|name| fmus.get(*name) != want.get(*name))
+                {
+                    return Err(SweepError::Merge(format!(
+                        "{} ran FMU {name:?} from other bytes than {} did (the FMU file was \
+                         rebuilt or replaced between the shards), so their cases are of two \
+                         models; rerun the shards with one set of FMUs",
+                        dir.display(),
+                        first.display()
+                    )));
+                }
+            }
+        }
+    }
+    if !unnamed.is_empty() {
+        crate::console!(
+            "warning: {} written by an earlier version, which did not record the FMUs: that \
+             all shards ran the same FMUs is not checked",
+            unnamed.join(", ")
+        );
     }
     let missing: Vec<String> = seen
         .iter()
