@@ -265,6 +265,17 @@ fn fnv1a_two([a, b]: [u64; 2], bytes: &[u8]) -> [u64; 2] {
     })
 }
 
+/// FNV-1a's offset basis, where every fingerprint starts.
+pub(crate) const FNV_BASIS: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// The [`fnv1a`] of what a scenario sets, with its FMU paths and trial count left out: the
+/// first part of a campaign's fingerprint, and what a sweep records of a finished case.
+pub(crate) fn scenario_digest(scenario: &Scenario, text: &str) -> Result<u64, CampaignError> {
+    let placeholders = vec![""; scenario.fmus.len()];
+    let identity = as_run_text(text, &scenario.source, &placeholders, 0)?;
+    Ok(fnv1a(FNV_BASIS, identity.as_bytes()))
+}
+
 /// A campaign's identity: its scenario text with the FMU paths and the trial count left out
 /// ([`as_run_text`] with placeholders) and the bytes of its FMUs, so the original scenario
 /// file, the saved `scenario.toml` and any `--trials` name the same campaign. Also the
@@ -276,12 +287,9 @@ struct Fingerprints {
 }
 
 fn fingerprint(scenario: &Scenario, text: &str) -> Result<Fingerprints, CampaignError> {
-    let placeholders = vec![""; scenario.fmus.len()];
-    let identity = as_run_text(text, &scenario.source, &placeholders, 0)?;
-    let basis = 0xcbf2_9ce4_8422_2325;
     let (mut current, mut earlier) = (
-        fnv1a(basis, identity.as_bytes()),
-        fnv1a(basis, text.as_bytes()),
+        scenario_digest(scenario, text)?,
+        fnv1a(FNV_BASIS, text.as_bytes()),
     );
     for f in &scenario.fmus {
         let bytes = fs::read(&f.path).map_err(|e| CampaignError::Resume {

@@ -430,6 +430,39 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
         assert!(want == have, "{name} differs after the resume");
     }
+
+    // Every kept case is checked, not only the first and the last: a case folder of the
+    // same sweep over another base, put in the middle, is named.
+    let other = tmp.path().join("other");
+    fs::write(
+        &base_file,
+        original.replace("[metrics]\n", "[metrics]\nrho = 2.0\n"),
+    )
+    .unwrap();
+    sweep_succeeds(&sweep, &other, 2);
+    fs::write(&base_file, &original).unwrap();
+    let middle = out.join("cases/case_0002");
+    fs::remove_dir_all(&middle).unwrap();
+    fs::rename(other.join("cases/case_0002"), &middle).unwrap();
+    fs::remove_dir_all(&last).unwrap();
+    resume().fails(&["cannot resume", "case 2", "base.toml"]);
+    assert!(!last.exists(), "a refused resume ran a case");
+
+    // Cases of earlier versions record only how they ended: their first and last are
+    // checked by their campaign fingerprints.
+    fs::remove_dir_all(&middle).unwrap();
+    for i in [0, 1, 3, 4] {
+        let outcome = out.join(format!("cases/case_{i:04}/outcome.toml"));
+        assert!(fs::read_to_string(&outcome).unwrap().contains("[fmus]"));
+        fs::write(&outcome, "status = \"completed\"\n").unwrap();
+    }
+    rebuild(&plant);
+    resume().fails(&["cannot resume", "case 0", "different FMUs"]);
+    fs::write(&plant, &pristine).unwrap();
+    resume().assert().success();
+    for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
+        assert!(want == have, "{name} differs after the last resume");
+    }
 }
 
 #[test]

@@ -4,7 +4,8 @@
 //! Output directory layout:
 //! - `sweep.toml`: the sweep file as run;
 //! - `cases/case_NNNN/`: each case, a complete `run` campaign directory (its `scenario.toml`
-//!   reruns it alone) plus `outcome.toml` (completed or failed, and why) once it has ended;
+//!   reruns it alone) plus `outcome.toml` once it has ended (completed or failed, and why;
+//!   the fingerprints of its scenario and FMU files, which a resume compares);
 //! - `sweep.csv`, `figures/*.svg`, `sweep-report.md`: the results of all cases;
 //! - `shard.toml` instead of the results when only shard K of N was run (the sweep's
 //!   fingerprint, K, N, and each FMU file's fingerprint); `merge` combines shard directories
@@ -26,7 +27,9 @@ use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
-use crate::campaign::{CampaignError, CampaignOptions, begun_with, fnv1a, run_campaign};
+use crate::campaign::{
+    CampaignError, CampaignOptions, FNV_BASIS, begun_with, fnv1a, run_campaign, scenario_digest,
+};
 use crate::output::{OutputError, write_atomic};
 use crate::scenario::Scenario;
 
@@ -91,7 +94,7 @@ pub struct SweepOptions {
 
 /// The sweep's fingerprint: its file and its base scenario. Shards of one sweep share it.
 pub fn fingerprint(spec: &SweepSpec) -> String {
-    let h = fnv1a(0xcbf2_9ce4_8422_2325, spec.text.as_bytes());
+    let h = fnv1a(FNV_BASIS, spec.text.as_bytes());
     format!("{:016x}", fnv1a(h, spec.base_text.as_bytes()))
 }
 
@@ -163,7 +166,7 @@ impl BaseFmus {
                 fmu: path.clone(),
                 message: e.to_string(),
             })?;
-            let digest = fnv1a(0xcbf2_9ce4_8422_2325, &bytes);
+            let digest = fnv1a(FNV_BASIS, &bytes);
             table.insert(name.clone(), toml::Value::String(format!("{digest:016x}")));
         }
         Ok(table)
@@ -417,7 +420,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         .collect();
     // Cases of this run (this shard) that ended in an earlier run, and those left to run.
     let (ended, todo): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| finished(out, i));
-    check_kept_cases(spec, &plans, out, &ended)?;
+    check_kept_cases(spec, &plans, out, &ended, &digests)?;
     // The stamp first: a folder that holds anything else then always says which sweep it is.
     let create = |dir: PathBuf| {
         fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
@@ -443,7 +446,8 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                 loop {
                     let slot = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = todo.get(slot) else { break };
-                    let failure = match run_case(spec, &plans[i], out, i, opts, &mut kept) {
+                    let failure = match run_case(spec, &plans[i], out, i, opts, &digests, &mut kept)
+                    {
                         Ok(failure) => failure,
                         Err(e) => {
                             first_error
@@ -506,38 +510,90 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     Ok(todo)
 }
 
+/// `outcome.toml`: how a case ended, and what it ran: the [`scenario_digest`] of its
+/// scenario and each FMU file's digest ([`BaseFmus::digests`]). Cases of earlier versions
+/// recorded only how they ended.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct CaseOutcome {
+    status: String,
+    message: Option<String>,
+    scenario: Option<String>,
+    fmus: Option<toml::Table>,
+}
+
 /// A resumed sweep keeps its finished cases, so they must come from the base scenario and
 /// FMUs as they are now, as `run --resume` requires of a campaign: otherwise the sweep
-/// would mix cases of two models without a word. Of the `ended` cases, the first and the
-/// last are checked, each check reading the FMU files once, so a large sweep resumes at
-/// once.
+/// would mix cases of two models without a word. Every `ended` case is compared by what its
+/// `outcome.toml` records, which costs no FMU file read per case. Of cases of earlier
+/// versions, which record nothing, the first and the last are checked by their campaign
+/// fingerprints, each check reading the FMU files once.
 fn check_kept_cases(
     spec: &SweepSpec,
     plans: &[(Scenario, String)],
     out: &Path,
     ended: &[usize],
+    digests: &toml::Table,
 ) -> Result<(), SweepError> {
-    let (Some(&first), Some(&last)) = (ended.first(), ended.last()) else {
+    let refuse = |i: usize, what: String| SweepError::Dir {
+        dir: out.to_path_buf(),
+        message: format!(
+            "cannot resume: case {i} ({}) was run {what} than the sweep has now, and resuming \
+             would mix its results with cases of another model; restore them, or run the sweep \
+             into a new --out",
+            case_dir(out, i).display(),
+        ),
+    };
+    let mut unrecorded = Vec::new();
+    for &i in ended {
+        let file = case_dir(out, i).join("outcome.toml");
+        let bad = |message: String| SweepError::Dir {
+            dir: file.clone(),
+            message,
+        };
+        let text = fs::read_to_string(&file).map_err(|e| bad(e.to_string()))?;
+        let outcome: CaseOutcome = toml::from_str(&text).map_err(|e| bad(e.message().into()))?;
+        let (Some(ran), Some(fmus)) = (outcome.scenario, outcome.fmus) else {
+            unrecorded.push(i);
+            continue;
+        };
+        let (scenario, text) = &plans[i];
+        let digest = scenario_digest(scenario, text).map_err(|source| SweepError::Campaign {
+            case: i,
+            source: Box::new(source),
+        })?;
+        if ran != format!("{digest:016x}") {
+            return Err(refuse(
+                i,
+                format!("from a different {} (what it sets)", spec.base.display()),
+            ));
+        }
+        if let Some(name) = digests
+            .keys()
+            .chain(fmus.keys())
+            .find(|name| digests.get(*name) != fmus.get(*name))
+        {
+            return Err(refuse(
+                i,
+                format!("with different FMUs (FMU {name:?}, other file bytes)"),
+            ));
+        }
+    }
+    let (Some(&first), Some(&last)) = (unrecorded.first(), unrecorded.last()) else {
         return Ok(());
     };
     for i in std::iter::once(first).chain((last != first).then_some(last)) {
         let (scenario, text) = &plans[i];
-        let dir = case_dir(out, i);
-        let same = begun_with(&dir, scenario, text).map_err(|source| SweepError::Campaign {
-            case: i,
-            source: Box::new(source),
+        let same = begun_with(&case_dir(out, i), scenario, text).map_err(|source| {
+            SweepError::Campaign {
+                case: i,
+                source: Box::new(source),
+            }
         })?;
         if same == Some(false) {
-            return Err(SweepError::Dir {
-                dir: out.to_path_buf(),
-                message: format!(
-                    "cannot resume: case {i} ({}) was run from a different {} or different \
-                     FMUs than the sweep has now, and resuming would mix its results with \
-                     cases of another model; restore them, or run the sweep into a new --out",
-                    dir.display(),
-                    spec.base.display()
-                ),
-            });
+            return Err(refuse(
+                i,
+                format!("from a different {} or different FMUs", spec.base.display()),
+            ));
         }
     }
     Ok(())
@@ -551,6 +607,7 @@ fn run_case(
     out: &Path,
     i: usize,
     opts: &SweepOptions,
+    digests: &toml::Table,
     kept: &mut KeptFmus,
 ) -> Result<Option<String>, SweepError> {
     let dir = case_dir(out, i);
@@ -577,15 +634,9 @@ fn run_case(
     if ran.is_err() {
         kept.clear();
     }
-    let (outcome, failure) = match ran {
-        Ok(_) => ("status = \"completed\"\n".to_string(), None),
-        Err(CampaignError::Master(e)) => {
-            let message = e.to_string();
-            (
-                format!("status = \"failed\"\nmessage = {message:?}\n"),
-                Some(message),
-            )
-        }
+    let failure = match ran {
+        Ok(_) => None,
+        Err(CampaignError::Master(e)) => Some(e.to_string()),
         Err(e) => {
             return Err(SweepError::Campaign {
                 case: i,
@@ -596,6 +647,25 @@ fn run_case(
     fs::create_dir_all(&dir).map_err(|e| SweepError::Dir {
         dir: dir.clone(),
         message: e.to_string(),
+    })?;
+    let digest = scenario_digest(scenario, text).map_err(|source| SweepError::Campaign {
+        case: i,
+        source: Box::new(source),
+    })?;
+    let outcome = CaseOutcome {
+        status: if failure.is_some() {
+            "failed"
+        } else {
+            "completed"
+        }
+        .into(),
+        message: failure.clone(),
+        scenario: Some(format!("{digest:016x}")),
+        fmus: Some(digests.clone()),
+    };
+    let outcome = toml::to_string(&outcome).map_err(|e| SweepError::Dir {
+        dir: dir.clone(),
+        message: format!("outcome.toml: {e}"),
     })?;
     write_text(&dir.join("outcome.toml"), &outcome)?;
     Ok(failure)
