@@ -510,6 +510,14 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     Ok(todo)
 }
 
+/// The first FMU whose digest differs between two records of FMU digests (or that only one
+/// of them names).
+fn first_difference<'t>(a: &'t toml::Table, b: &'t toml::Table) -> Option<&'t String> {
+    a.keys()
+        .chain(b.keys())
+        .find(|name| a.get(*name) != b.get(*name))
+}
+
 /// `outcome.toml`: how a case ended, and what it ran: the [`scenario_digest`] of its
 /// scenario and each FMU file's digest ([`BaseFmus::digests`]). Cases of earlier versions
 /// recorded only how they ended.
@@ -567,11 +575,7 @@ fn check_kept_cases(
                 format!("from a different {} (what it sets)", spec.base.display()),
             ));
         }
-        if let Some(name) = digests
-            .keys()
-            .chain(fmus.keys())
-            .find(|name| digests.get(*name) != fmus.get(*name))
-        {
+        if let Some(name) = first_difference(digests, &fmus) {
             return Err(refuse(
                 i,
                 format!("with different FMUs (FMU {name:?}, other file bytes)"),
@@ -739,11 +743,7 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
             (None, _) => unnamed.push(dir.display().to_string()),
             (Some(fmus), None) => first_fmus = Some((dir, fmus)),
             (Some(fmus), Some((first, want))) => {
-                if let Some(name) = fmus
-                    .keys()
-                    .chain(want.keys())
-                    .find(|name| fmus.get(*name) != want.get(*name))
-                {
+                if let Some(name) = first_difference(&fmus, want) {
                     return Err(SweepError::Merge(format!(
                         "{} ran FMU {name:?} from other bytes than {} did (the FMU file was \
                          rebuilt or replaced between the shards), so their cases are of two \
