@@ -3,6 +3,9 @@
 //! file, with a line inside the text. A panic or a hang is a finding.
 #![no_main]
 
+#[path = "../common/file_error.rs"]
+mod file_error;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -49,13 +52,6 @@ fuzz_target!(|bytes: &[u8]| {
             assert!(s.stop_time.is_finite() && s.stop_time > s.start_time);
             assert!(s.steps >= 1 && s.trials >= 1 && s.record.interval >= 1);
         }
-        Err(e) => {
-            assert_eq!(e.file, file);
-            assert!(!e.message.is_empty());
-            if let Some(line) = e.line {
-                assert!(line >= 1 && line <= text.lines().count() + 1, "{e}");
-            }
-            let _ = e.to_string();
-        }
+        Err(e) => file_error::check(text, &file, &e.file, e.line, &e.message, &e.to_string()),
     }
 });

@@ -4,6 +4,9 @@
 //! a finding.
 #![no_main]
 
+#[path = "../common/file_error.rs"]
+mod file_error;
+
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
@@ -38,13 +41,6 @@ fuzz_target!(|bytes: &[u8]| {
             assert_eq!(names.len(), spec.axes.len(), "two axes of one name");
             let _ = spec.case_labels(spec.cases.len() - 1);
         }
-        Err(e) => {
-            assert_eq!(e.file, file);
-            assert!(!e.message.is_empty());
-            if let Some(line) = e.line {
-                assert!(line >= 1 && line <= text.lines().count() + 1, "{e}");
-            }
-            let _ = e.to_string();
-        }
+        Err(e) => file_error::check(text, &file, &e.file, e.line, &e.message, &e.to_string()),
     }
 });

@@ -266,6 +266,36 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
     }
 }
 
+/// Runs shard `k` of 2 of `sweep` into `dir`/`name`, which must succeed; that folder.
+fn shard_of_two(sweep: &Path, k: usize, dir: &Path, name: &str) -> PathBuf {
+    let out = dir.join(name);
+    orchestrator()
+        .arg("sweep")
+        .arg(sweep)
+        .arg("--out")
+        .arg(&out)
+        .arg("--shard")
+        .arg(format!("{k}/2"))
+        .assert()
+        .success();
+    out
+}
+
+/// Gives the base scenario in `dir` (of [`setup`]) its own copy of the plant FMU, which a
+/// test may then change; the copy's path and the base scenario's new text.
+fn own_plant(dir: &Path) -> (PathBuf, String) {
+    let plant = dir.join("CkcmPlant.fmu");
+    fs::copy(built_fmu("CkcmPlant"), &plant).unwrap();
+    let base_file = dir.join("base.toml");
+    let text = fs::read_to_string(&base_file).unwrap().replace(
+        &format!("{:?}", built_fmu("CkcmPlant")),
+        &format!("{plant:?}"),
+    );
+    assert!(text.contains(&format!("{plant:?}")));
+    fs::write(&base_file, &text).unwrap();
+    (plant, text)
+}
+
 /// Gives the FMU at `fmu` other bytes, as a rebuild would: a file added to its archive.
 fn rebuild(fmu: &Path) {
     let edited = fmu.with_extension("edited");
@@ -297,27 +327,8 @@ fn rebuild(fmu: &Path) {
 fn shards_of_other_fmus_do_not_merge() {
     let tmp = tempfile::tempdir().unwrap();
     let sweep = setup(tmp.path(), 1);
-    let plant = tmp.path().join("CkcmPlant.fmu");
-    fs::copy(built_fmu("CkcmPlant"), &plant).unwrap();
-    let base_file = tmp.path().join("base.toml");
-    let text = fs::read_to_string(&base_file).unwrap().replace(
-        &format!("{:?}", built_fmu("CkcmPlant")),
-        &format!("{plant:?}"),
-    );
-    fs::write(&base_file, text).unwrap();
-    let shard = |k: usize, name: &str| {
-        let out = tmp.path().join(name);
-        orchestrator()
-            .arg("sweep")
-            .arg(&sweep)
-            .arg("--out")
-            .arg(&out)
-            .arg("--shard")
-            .arg(format!("{k}/2"))
-            .assert()
-            .success();
-        out
-    };
+    let (plant, _) = own_plant(tmp.path());
+    let shard = |k: usize, name: &str| shard_of_two(&sweep, k, tmp.path(), name);
     let merge = |shards: &[&Path], out: &Path| {
         let mut cmd = orchestrator();
         cmd.args(["sweep", "merge"]).arg(&sweep);
@@ -373,15 +384,8 @@ fn shards_of_other_fmus_do_not_merge() {
 fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     let tmp = tempfile::tempdir().unwrap();
     let sweep = setup(tmp.path(), 3);
-    let plant = tmp.path().join("CkcmPlant.fmu");
-    fs::copy(built_fmu("CkcmPlant"), &plant).unwrap();
+    let (plant, original) = own_plant(tmp.path());
     let base_file = tmp.path().join("base.toml");
-    let original = fs::read_to_string(&base_file).unwrap().replace(
-        &format!("{:?}", built_fmu("CkcmPlant")),
-        &format!("{plant:?}"),
-    );
-    assert!(original.contains(&format!("{plant:?}")));
-    fs::write(&base_file, &original).unwrap();
     let out = tmp.path().join("out");
     sweep_succeeds(&sweep, &out, 2);
     let reference = results(&out);
@@ -546,21 +550,8 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
     // Shards of two different sweeps, and a missing shard, do not merge.
     let other = tmp.path().join("other.toml");
     fs::write(&other, text.replace("seed = 3", "seed = 4")).unwrap();
-    let shard = |file: &Path, k: usize, name: &str| {
-        let out = tmp.path().join(name);
-        orchestrator()
-            .arg("sweep")
-            .arg(file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--shard")
-            .arg(format!("{k}/2"))
-            .assert()
-            .success();
-        out
-    };
-    let a0 = shard(&sweep, 0, "a0");
-    let b1 = shard(&other, 1, "b1");
+    let a0 = shard_of_two(&sweep, 0, tmp.path(), "a0");
+    let b1 = shard_of_two(&other, 1, tmp.path(), "b1");
     let merged = tmp.path().join("merged");
     orchestrator()
         .args(["sweep", "merge"])
