@@ -380,6 +380,31 @@ pub struct Scenario {
     pub stop_time_line: Option<usize>,
 }
 
+/// Most bytes a scenario or sweep file may hold. Such files are a few kilobytes; the bound
+/// turns a path to an endless source (`/dev/zero`, a device) into an error instead of a
+/// read that never ends, while pipes (`run <(generate)`) still work.
+pub const MAX_TEXT_BYTES: u64 = 64 << 20;
+
+/// Reads a scenario or sweep file as UTF-8 text of at most [`MAX_TEXT_BYTES`].
+pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    std::fs::File::open(path)?
+        .take(MAX_TEXT_BYTES + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > MAX_TEXT_BYTES {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "it holds more than {} MiB, which no scenario or sweep file does (is it a \
+                 device or a data file?)",
+                MAX_TEXT_BYTES >> 20
+            ),
+        ));
+    }
+    Ok(text)
+}
+
 /// Line (1-based) of a byte offset.
 pub(crate) fn line_of(text: &str, offset: usize) -> usize {
     text.as_bytes()[..offset.min(text.len())]
@@ -464,7 +489,7 @@ impl Scenario {
     /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
     /// in scenario order.
     pub fn open(file: &Path) -> Result<(Scenario, String, Vec<Fmu>), ScenarioError> {
-        let text = std::fs::read_to_string(file).map_err(|e| {
+        let text = read_text(file).map_err(|e| {
             ScenarioError::new(file, None, format!("cannot read the scenario: {e}"))
         })?;
         let (scenario, fmus) = Self::open_text(&text, file)?;

@@ -362,6 +362,46 @@ struct InputColumn {
     vr: u32,
 }
 
+/// Longest line an `--input` CSV may have: a time and far more inputs than any FMU has.
+const MAX_INPUT_LINE: usize = 1 << 20;
+
+/// A reader that fails once a line passes [`MAX_INPUT_LINE`] bytes. The `csv` crate holds a
+/// record in memory until its line ends, and has no limit of its own, so a path to an endless
+/// source without newlines (`/dev/zero`) would be read until memory ran out; any length of
+/// file with lines of a sane length still reads.
+struct ShortLines<R> {
+    inner: R,
+    /// Bytes since the last newline.
+    line: usize,
+}
+
+impl<R> ShortLines<R> {
+    fn new(inner: R) -> Self {
+        ShortLines { inner, line: 0 }
+    }
+}
+
+impl<R: io::Read> io::Read for ShortLines<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.line = match buf[..n].iter().rposition(|&b| b == b'\n') {
+            Some(last) => n - last - 1,
+            None => self.line + n,
+        };
+        if self.line > MAX_INPUT_LINE {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "a line longer than {} MiB, which no input table has (is it a device or a \
+                     binary file?)",
+                    MAX_INPUT_LINE >> 20
+                ),
+            ));
+        }
+        Ok(n)
+    }
+}
+
 /// The `--input` CSV: rows of (time, one value per column), times non-decreasing.
 #[derive(Debug)]
 struct InputTable {
@@ -383,7 +423,7 @@ impl InputTable {
         })?;
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(io::BufReader::new(file));
+            .from_reader(io::BufReader::new(ShortLines::new(file)));
         let at = |line: u64, column: usize| format!("{}:{line}: column {column}", path.display());
         let header = reader
             .headers()
@@ -782,6 +822,32 @@ fn run_plan(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Any length of file with short lines reads whole, however the reads split it; a line
+    /// just over the limit fails, one at the limit does not.
+    #[test]
+    fn short_lines_bounds_lines_not_files() {
+        use std::io::Read;
+        let read = |bytes: Vec<u8>| {
+            let mut out = Vec::new();
+            ShortLines::new(io::Cursor::new(bytes))
+                .read_to_end(&mut out)
+                .map(|_| out.len())
+        };
+        let rows = "0.001,1.5,2.5\n".repeat(300_000).into_bytes();
+        assert_eq!(read(rows.clone()).unwrap(), rows.len());
+        let mut at_limit = vec![b'1'; MAX_INPUT_LINE];
+        at_limit.push(b'\n');
+        at_limit.extend_from_slice(&rows);
+        assert!(read(at_limit).is_ok());
+        let mut over = rows;
+        over.extend(std::iter::repeat_n(b'1', MAX_INPUT_LINE + 1));
+        let err = read(over).unwrap_err();
+        assert!(
+            err.to_string().contains("a line longer than 1 MiB"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn grid_is_computed_not_accumulated() {

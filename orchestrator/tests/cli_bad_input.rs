@@ -14,9 +14,15 @@ struct Failure {
     stderr: String,
 }
 
-/// Runs `orchestrator args...`, which must fail without writing `must_not_exist`.
+/// Runs `orchestrator args...`, which must fail without writing `must_not_exist`, and
+/// within two minutes: a refusal is quick, and a command that hangs on bad input fails here
+/// instead of stalling the suite.
 fn fails(args: &[&std::ffi::OsStr], must_not_exist: &Path) -> Failure {
-    let output = orchestrator().args(args).output().unwrap();
+    let output = orchestrator()
+        .args(args)
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
     assert!(
         !output.status.success(),
@@ -618,4 +624,67 @@ fn fmus_in_a_folder_whose_name_is_not_utf8() {
         err.contains("warning: FMU \"plant\" lies at a path that is not valid UTF-8"),
         "{err}"
     );
+}
+
+/// A path to an endless source (`/dev/zero`) as a scenario, a sweep file, a sweep's base or
+/// an input table is refused once it passes any such file's size, with the reason; before,
+/// each was read until memory ran out. A pipe still reads (`run <(generate)`), which is
+/// why the bound is on size and not on the kind of file.
+#[cfg(unix)]
+#[test]
+fn endless_sources_are_refused_not_read_forever() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let zero = Path::new("/dev/zero");
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "base = \"/dev/zero\"\n[[axis]]\nname = \"m\"\nparameters = [\"plant.platform_mass\"]\n\
+         values = [1.0]\n",
+    )
+    .unwrap();
+    let plant = built_fmu("CkcmPlant");
+    let cases: [(Vec<&std::ffi::OsStr>, &str); 4] = [
+        (
+            vec![
+                "run".as_ref(),
+                zero.as_ref(),
+                "--out".as_ref(),
+                out.as_ref(),
+            ],
+            "/dev/zero: cannot read the scenario: it holds more than 64 MiB",
+        ),
+        (
+            vec![
+                "sweep".as_ref(),
+                zero.as_ref(),
+                "--out".as_ref(),
+                out.as_ref(),
+            ],
+            "/dev/zero: cannot read the sweep file: it holds more than 64 MiB",
+        ),
+        (
+            vec![
+                "sweep".as_ref(),
+                sweep.as_ref(),
+                "--out".as_ref(),
+                out.as_ref(),
+            ],
+            "sweep.toml:1: cannot read the base scenario /dev/zero: it holds more than 64 MiB",
+        ),
+        (
+            vec![
+                "simulate".as_ref(),
+                plant.as_ref(),
+                "--input".as_ref(),
+                zero.as_ref(),
+                "--output".as_ref(),
+                out.as_ref(),
+            ],
+            "/dev/zero:1: cannot read the header: a line longer than 1 MiB",
+        ),
+    ];
+    for (args, says) in &cases {
+        fails(args, &out).says(says);
+    }
 }

@@ -12,7 +12,7 @@ use rand_distr::{Distribution, Normal, Uniform};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scenario::{first_repeat, line_of, toml_message};
+use crate::scenario::{first_repeat, line_of, read_text, toml_message};
 
 /// A sweep-file problem: file, line (when known) and message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -176,7 +176,7 @@ impl SweepSpec {
     /// Reads and validates a sweep file and its base scenario's text (the scenario itself is
     /// validated per case, against the FMUs).
     pub fn load(file: &Path) -> Result<SweepSpec, SweepSpecError> {
-        let text = std::fs::read_to_string(file).map_err(|e| SweepSpecError {
+        let text = read_text(file).map_err(|e| SweepSpecError {
             file: file.to_path_buf(),
             line: None,
             message: format!("cannot read the sweep file: {e}"),
@@ -200,7 +200,7 @@ impl SweepSpec {
             .parent()
             .unwrap_or(Path::new("."))
             .join(raw.base.get_ref());
-        let base_text = std::fs::read_to_string(&base).map_err(|e| {
+        let base_text = read_text(&base).map_err(|e| {
             err(
                 raw.base.span(),
                 format!("cannot read the base scenario {}: {e}", base.display()),
