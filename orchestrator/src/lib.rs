@@ -14,15 +14,6 @@ macro_rules! console {
     }};
 }
 
-/// `print!` that never panics, for the text `info` and `analyze` write to stdout.
-#[macro_export]
-macro_rules! output {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = write!(std::io::stdout(), $($arg)*);
-    }};
-}
-
 pub mod campaign;
 pub mod master;
 pub mod output;

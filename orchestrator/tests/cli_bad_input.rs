@@ -688,3 +688,35 @@ fn endless_sources_are_refused_not_read_forever() {
         fails(args, &out).says(says);
     }
 }
+
+/// A result that cannot be written to standard output (a full disk behind a redirect) is
+/// an error naming it, with a non-zero exit; before, `info` and `analyze` exited 0 with
+/// their text lost.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_standard_output_is_an_error() {
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    let plant = built_fmu("CkcmPlant");
+    for (args, says) in [
+        (vec!["info"], "cannot write to standard output"),
+        (
+            vec!["simulate", "--stop-time", "0.01"],
+            "cannot write the result to standard output",
+        ),
+    ] {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(&args)
+            .arg(&plant)
+            .stdout(full())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{args:?} exited 0: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
+}

@@ -72,7 +72,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     // folder's earlier table and summary together.
     write_csv(&out.join("convergence.csv"), &analysis)?;
     write_atomic(&out.join("summary.md"), |w| w.write_all(summary.as_bytes()))?;
-    orchestrator::output!("{summary}");
+    orchestrator::output::to_stdout(|w| w.write_all(summary.as_bytes()))
+        .context("cannot write the summary to standard output")?;
     orchestrator::console!("results in {}", out.display());
     Ok(())
 }

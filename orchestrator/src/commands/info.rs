@@ -6,7 +6,7 @@
 
 use std::fmt::Write as _;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use fmi2_import::Fmu;
 use fmi2_md::{
     Initial, ModelDescription, ScalarVariable, SimpleTypeKind, VariableKind,
@@ -18,8 +18,9 @@ use crate::args::InfoArgs;
 /// Runs `info`.
 pub fn run(args: InfoArgs) -> Result<()> {
     let fmu = super::simulate::open_fmu(&args.fmu)?;
-    orchestrator::output!("{}", describe(&fmu));
-    Ok(())
+    let text = describe(&fmu);
+    orchestrator::output::to_stdout(|w| w.write_all(text.as_bytes()))
+        .context("cannot write to standard output")
 }
 
 /// The whole report as text.

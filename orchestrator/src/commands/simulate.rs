@@ -2,12 +2,11 @@
 //! recording written as CSV. The result is written only after the last step succeeded, and
 //! atomically, so a failed run leaves no output file behind.
 
-use std::io;
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use fmi2_import::Fmu;
-use orchestrator::output::{CsvWithText, Exporter, write_recording};
+use orchestrator::output::{CsvWithText, Exporter, to_stdout, write_recording};
 use orchestrator::simulate::{SimulateOptions, simulate};
 
 use crate::args::SimulateArgs;
@@ -37,11 +36,8 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let exporter = CsvWithText { text };
     match &args.output {
         Some(path) => write_recording(path, &recording, &exporter)?,
-        None => match exporter.write(&recording, &mut io::stdout().lock()) {
-            // A reader that stops early (`| head`) is not an error of the simulation.
-            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => {}
-            other => other.context("cannot write the result to standard output")?,
-        },
+        None => to_stdout(|w| exporter.write(&recording, w))
+            .context("cannot write the result to standard output")?,
     }
     Ok(())
 }

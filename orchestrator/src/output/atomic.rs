@@ -38,8 +38,12 @@ pub struct Prepared {
 }
 
 impl Prepared {
-    /// Renames the temporary file over the target and makes the rename durable.
+    /// Renames the temporary file over the target and makes the rename durable (nothing to
+    /// do for a target written in place, see [`prepare_atomic`]).
     pub fn commit(self) -> Result<(), OutputError> {
+        if self.temp.0.is_none() {
+            return Ok(());
+        }
         let dir = parent_dir(&self.path);
         fs::rename(self.temp.path(), &self.path).map_err(|source| OutputError::Io {
             path: self.path.clone(),
@@ -52,18 +56,44 @@ impl Prepared {
 }
 
 /// Writes and syncs the temporary file of [`write_atomic`] and stops before the rename.
+///
+/// Two kinds of target are not replaced by a file of their own: a symbolic link is followed,
+/// so the file it names gets the new content and the link stays; and a target that exists
+/// but is no regular file (`/dev/null`, `/dev/stdout` on a pipe, a FIFO) is written in
+/// place, now, since a rename would put a plain file where the device was (as root, even
+/// in `/dev`) and a device has no old content to protect.
 pub fn prepare_atomic<F>(path: &Path, write: F) -> Result<Prepared, OutputError>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
-    let temp = prepare_inner(path, write).map_err(|source| OutputError::Io {
+    let io_error = |source| OutputError::Io {
         path: path.to_owned(),
         source,
-    })?;
-    Ok(Prepared {
-        temp,
-        path: path.to_owned(),
-    })
+    };
+    if fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let mut out = BufWriter::new(
+            OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(io_error)?,
+        );
+        write(&mut out)
+            .and_then(|()| out.flush())
+            .map_err(io_error)?;
+        return Ok(Prepared {
+            temp: TempFile(None),
+            path: path.to_owned(),
+        });
+    }
+    let target = match fs::symlink_metadata(path) {
+        // A dangling link is replaced, as before: there is no file to follow it to.
+        Ok(m) if m.file_type().is_symlink() => {
+            fs::canonicalize(path).unwrap_or_else(|_| path.to_owned())
+        }
+        _ => path.to_owned(),
+    };
+    let temp = prepare_inner(&target, write).map_err(io_error)?;
+    Ok(Prepared { temp, path: target })
 }
 
 fn parent_dir(path: &Path) -> &Path {
@@ -237,6 +267,62 @@ impl Drop for TempFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A FIFO is written in place and stays a FIFO (a rename would have put a plain file
+    /// there, as it put one in place of `/dev/full` when run as root); a symbolic link
+    /// stays a link, and the file it names gets the content.
+    #[cfg(unix)]
+    #[test]
+    fn special_files_are_written_in_place_and_links_followed() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.unwrap().success(), "mkfifo failed");
+        // Both ends in threads, the result awaited with a limit: replaced by a rename, the
+        // FIFO would leave its reader waiting for a writer that never comes.
+        let (done, results) = std::sync::mpsc::channel();
+        for writes in [true, false] {
+            let (fifo, done) = (fifo.clone(), done.clone());
+            std::thread::spawn(move || {
+                let got = if writes {
+                    write_atomic(&fifo, |w| w.write_all(b"through the pipe"))
+                        .map(|()| None)
+                        .map_err(|e| e.to_string())
+                } else {
+                    fs::read(&fifo).map(Some).map_err(|e| e.to_string())
+                };
+                let _ = done.send(got);
+            });
+        }
+        let mut read = None;
+        for _ in 0..2 {
+            let got = results
+                .recv_timeout(std::time::Duration::from_secs(30))
+                .expect("the FIFO's reader or writer hung");
+            read = read.or(got.unwrap());
+        }
+        assert_eq!(read.as_deref(), Some(&b"through the pipe"[..]));
+        assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        assert_eq!(
+            dir_entries(dir.path()),
+            ["pipe"],
+            "a temporary file was left"
+        );
+
+        let target = dir.path().join("target.csv");
+        fs::write(&target, b"old").unwrap();
+        let link = dir.path().join("latest.csv");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        write_atomic(&link, |w| w.write_all(b"new")).unwrap();
+        assert!(
+            fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(fs::read(&target).unwrap(), b"new");
+    }
 
     fn dir_entries(dir: &Path) -> Vec<String> {
         let mut v: Vec<String> = fs::read_dir(dir)

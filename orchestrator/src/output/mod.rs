@@ -22,6 +22,20 @@ pub use self::csv::{
 pub use self::parquet::ParquetExporter;
 pub use self::recording::{RecordedRows, Recording};
 
+/// Writes a command's text result (`info`, `analyze`, `simulate` without `--output`) to
+/// standard output, flushed, so that a full disk behind a redirect is an error and not a
+/// silently empty file. A reader that stopped early (`| head`) is no error of the command.
+pub fn to_stdout(
+    write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match write(&mut out).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
 /// A simulation time for messages: to the nanosecond, trailing zeros dropped, so a time the
 /// master reached by adding steps reads as the user wrote it (0.943, not 0.9430000000000001).
 pub fn seconds(t: f64) -> String {
