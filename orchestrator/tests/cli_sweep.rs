@@ -376,6 +376,68 @@ fn shards_of_other_fmus_do_not_merge() {
     );
 }
 
+/// An FMU file replaced while a sweep runs (a rebuild during a long study) stops the sweep
+/// before its next case, naming the file: the cases after it would be of another model.
+/// The finished cases are kept, and once the file's bytes are restored the sweep resumes
+/// and ends as an uninterrupted run. Before, the later cases ran with the new FMU.
+#[test]
+fn an_fmu_replaced_during_a_sweep_stops_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 6);
+    let (plant, _) = own_plant(tmp.path());
+    let pristine = fs::read(&plant).unwrap();
+    let plain = tmp.path().join("plain");
+    sweep_succeeds(&sweep, &plain, 2);
+    let rebuilt = tmp.path().join("rebuilt.fmu");
+    fs::copy(&plant, &rebuilt).unwrap();
+    rebuild(&rebuilt);
+    let out = tmp.path().join("out");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .args(["--jobs", "1"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while mtimes(&out).is_empty() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    fs::rename(&rebuilt, &plant).unwrap();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "the sweep went on: {stderr}");
+    assert!(
+        stderr.contains("CkcmPlant.fmu") && stderr.contains("changed while the sweep ran"),
+        "{stderr}"
+    );
+    let kept = mtimes(&out);
+    assert!(
+        !kept.is_empty() && kept.len() < 6,
+        "{} cases ended",
+        kept.len()
+    );
+    fs::write(&plant, &pristine).unwrap();
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .arg("--resume")
+        .assert()
+        .success();
+    assert_eq!(
+        mtimes(&out)[..kept.len()],
+        kept[..],
+        "kept cases were run again"
+    );
+    for ((name, want), (_, have)) in results(&plain).iter().zip(results(&out).iter()) {
+        assert!(want == have, "{name} differs after the resume");
+    }
+}
+
 /// A resumed sweep keeps its finished cases, so it refuses to go on once the FMUs or the
 /// base scenario changed under them (as `run --resume` refuses a campaign), and goes on once
 /// they are restored. Before this check, the resumed cases ran with the new FMUs beside

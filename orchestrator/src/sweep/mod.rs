@@ -155,21 +155,25 @@ impl BaseFmus {
         Ok(BaseFmus { fmus })
     }
 
-    /// Each FMU's name and the [`fnv1a`] of its file's bytes, as a shard records them: shards
-    /// run by cluster tasks may each have found other FMU files at the base's paths, and
-    /// `merge` must not combine cases of two models.
-    fn digests(&self, spec: &SweepSpec) -> Result<toml::Table, SweepError> {
-        let mut table = toml::Table::new();
+    /// What the sweep runs: each FMU's name and the [`fnv1a`] of its file's bytes, as a
+    /// shard and every case record them (shards run by cluster tasks may each have found other
+    /// FMU files at the base's paths, and `merge` must not combine cases of two models), and
+    /// each file's size and modification time, taken before its bytes were read.
+    fn ran_with(&self, spec: &SweepSpec) -> Result<RanWith, SweepError> {
+        let mut ran = RanWith::default();
         for (name, path, _) in &self.fmus {
-            let bytes = fs::read(path).map_err(|e| SweepError::Fmu {
+            let fmu_error = |e: std::io::Error| SweepError::Fmu {
                 file: spec.base.clone(),
                 fmu: path.clone(),
                 message: e.to_string(),
-            })?;
-            let digest = fnv1a(FNV_BASIS, &bytes);
-            table.insert(name.clone(), toml::Value::String(format!("{digest:016x}")));
+            };
+            let stamp = file_stamp(path).map_err(fmu_error)?;
+            let digest = fnv1a(FNV_BASIS, &fs::read(path).map_err(fmu_error)?);
+            ran.digests
+                .insert(name.clone(), toml::Value::String(format!("{digest:016x}")));
+            ran.stamps.push((path.clone(), stamp));
         }
-        Ok(table)
+        Ok(ran)
     }
 
     fn md(&self, path: &Path) -> Result<ModelDescription, String> {
@@ -183,6 +187,44 @@ impl BaseFmus {
     fn start(&self, fmu: &str, name: &str) -> Option<f64> {
         let (_, _, md) = self.fmus.iter().find(|(n, _, _)| n == fmu)?;
         md.variable_by_name(name)?.start_as_f64()
+    }
+}
+
+/// The FMU files a sweep runs, as [`BaseFmus::ran_with`] found them at its start.
+#[derive(Debug, Default)]
+struct RanWith {
+    /// FMU name → digest of the file's bytes.
+    digests: toml::Table,
+    /// Each file's path, size and modification time.
+    stamps: Vec<(PathBuf, FileStamp)>,
+}
+
+type FileStamp = (u64, Option<std::time::SystemTime>);
+
+fn file_stamp(path: &Path) -> std::io::Result<FileStamp> {
+    let meta = fs::metadata(path)?;
+    Ok((meta.len(), meta.modified().ok()))
+}
+
+impl RanWith {
+    /// Refuses to run a case once an FMU file changed since the sweep began: its cases
+    /// would be of two models, and every case records the digests taken at the start.
+    /// Cheap (a `stat` per file), so it runs before every case.
+    fn unchanged(&self, spec: &SweepSpec) -> Result<(), SweepError> {
+        for (path, then) in &self.stamps {
+            if file_stamp(path).ok().as_ref() != Some(then) {
+                return Err(SweepError::Fmu {
+                    file: spec.base.clone(),
+                    fmu: path.clone(),
+                    message: "the file changed while the sweep ran (its size or modification \
+                              time), so the cases after it would be of another model; the \
+                              finished cases are kept: restore the file and run again with \
+                              --resume, or start the sweep in a new --out"
+                        .into(),
+                });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -413,14 +455,14 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     }
     let base = BaseFmus::open(spec)?;
     // Taken before any case runs, so the stamp names the FMUs the cases ran with.
-    let digests = base.digests(spec)?;
+    let ran_with = base.ran_with(spec)?;
     let plans = plan(spec, &base, out)?;
     let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
         .collect();
     // Cases of this run (this shard) that ended in an earlier run, and those left to run.
     let (ended, todo): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| finished(out, i));
-    check_kept_cases(spec, &plans, out, &ended, &digests)?;
+    check_kept_cases(spec, &plans, out, &ended, &ran_with.digests)?;
     // The stamp first: a folder that holds anything else then always says which sweep it is.
     let create = |dir: PathBuf| {
         fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
@@ -446,18 +488,18 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                 loop {
                     let slot = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = todo.get(slot) else { break };
-                    let failure = match run_case(spec, &plans[i], out, i, opts, &digests, &mut kept)
-                    {
-                        Ok(failure) => failure,
-                        Err(e) => {
-                            first_error
-                                .lock()
-                                .unwrap_or_else(PoisonError::into_inner)
-                                .get_or_insert(e);
-                            next.store(todo.len(), Ordering::Relaxed);
-                            break;
-                        }
-                    };
+                    let failure =
+                        match run_case(spec, &plans[i], out, i, opts, &ran_with, &mut kept) {
+                            Ok(failure) => failure,
+                            Err(e) => {
+                                first_error
+                                    .lock()
+                                    .unwrap_or_else(PoisonError::into_inner)
+                                    .get_or_insert(e);
+                                next.store(todo.len(), Ordering::Relaxed);
+                                break;
+                            }
+                        };
                     if failure.is_some() {
                         failed.fetch_add(1, Ordering::Relaxed);
                     }
@@ -497,7 +539,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
                 fingerprint: fp,
                 shard: k,
                 shards: n,
-                fmus: Some(digests),
+                fmus: Some(ran_with.digests),
             };
             let text = toml::to_string(&stamp).map_err(|e| SweepError::Dir {
                 dir: out.clone(),
@@ -519,7 +561,7 @@ fn first_difference<'t>(a: &'t toml::Table, b: &'t toml::Table) -> Option<&'t St
 }
 
 /// `outcome.toml`: how a case ended, and what it ran: the [`scenario_digest`] of its
-/// scenario and each FMU file's digest ([`BaseFmus::digests`]). Cases of earlier versions
+/// scenario and each FMU file's digest ([`BaseFmus::ran_with`]). Cases of earlier versions
 /// recorded only how they ended.
 #[derive(Debug, serde::Serialize, serde::Deserialize)]
 struct CaseOutcome {
@@ -611,7 +653,7 @@ fn run_case(
     out: &Path,
     i: usize,
     opts: &SweepOptions,
-    digests: &toml::Table,
+    ran_with: &RanWith,
     kept: &mut KeptFmus,
 ) -> Result<Option<String>, SweepError> {
     let dir = case_dir(out, i);
@@ -622,6 +664,8 @@ fn run_case(
             source: Box::new(e),
         })?);
     }
+    // After the opening: the FMUs this case runs were opened from the files as they began.
+    ran_with.unchanged(spec)?;
     let copts = CampaignOptions {
         out_dir: dir.clone(),
         resume: true,
@@ -665,7 +709,7 @@ fn run_case(
         .into(),
         message: failure.clone(),
         scenario: Some(format!("{digest:016x}")),
-        fmus: Some(digests.clone()),
+        fmus: Some(ran_with.digests.clone()),
     };
     let outcome = toml::to_string(&outcome).map_err(|e| SweepError::Dir {
         dir: dir.clone(),
