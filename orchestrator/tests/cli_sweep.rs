@@ -185,6 +185,41 @@ fn mtimes(dir: &Path) -> Vec<(usize, SystemTime)> {
         .collect()
 }
 
+/// `sweep SWEEP --out OUT --resume`.
+fn resume(sweep: &Path, out: &Path) -> assert_cmd::Command {
+    let mut cmd = orchestrator();
+    cmd.arg("sweep")
+        .arg(sweep)
+        .arg("--out")
+        .arg(out)
+        .arg("--resume");
+    cmd
+}
+
+/// Starts `sweep SWEEP --out OUT --jobs 1` and returns once `cases` cases have ended (or
+/// after two minutes), the sweep still running.
+fn one_case_at_a_time(
+    sweep: &Path,
+    out: &Path,
+    stderr: std::process::Stdio,
+    cases: usize,
+) -> std::process::Child {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg("sweep")
+        .arg(sweep)
+        .arg("--out")
+        .arg(out)
+        .args(["--jobs", "1"])
+        .stderr(stderr)
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while mtimes(out).len() < cases && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child
+}
+
 #[test]
 fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
     let tmp = tempfile::tempdir().unwrap();
@@ -198,20 +233,8 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
         .assert()
         .success();
     let out = tmp.path().join("killed");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&out)
-        .args(["--jobs", "1"])
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    // Kill once two cases have finished, while later ones run.
-    let start = Instant::now();
-    while mtimes(&out).len() < 2 && start.elapsed() < Duration::from_secs(120) {
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    let mut child = one_case_at_a_time(&sweep, &out, std::process::Stdio::null(), 2);
+    // Killed once two cases have finished, while later ones run.
     child.kill().unwrap();
     child.wait().unwrap();
     let before = mtimes(&out);
@@ -227,14 +250,7 @@ fn a_killed_sweep_resumes_without_losing_or_repeating_a_case() {
         .arg("--out")
         .arg(&out)
         .fails(&["--resume"]);
-    orchestrator()
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&out)
-        .arg("--resume")
-        .assert()
-        .success();
+    resume(&sweep, &out).assert().success();
     let after = mtimes(&out);
     for (i, t) in &before {
         assert!(
@@ -392,19 +408,7 @@ fn an_fmu_replaced_during_a_sweep_stops_it() {
     fs::copy(&plant, &rebuilt).unwrap();
     rebuild(&rebuilt);
     let out = tmp.path().join("out");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&out)
-        .args(["--jobs", "1"])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while mtimes(&out).is_empty() && start.elapsed() < Duration::from_secs(120) {
-        std::thread::sleep(Duration::from_millis(2));
-    }
+    let child = one_case_at_a_time(&sweep, &out, std::process::Stdio::piped(), 1);
     fs::rename(&rebuilt, &plant).unwrap();
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -420,14 +424,7 @@ fn an_fmu_replaced_during_a_sweep_stops_it() {
         kept.len()
     );
     fs::write(&plant, &pristine).unwrap();
-    orchestrator()
-        .arg("sweep")
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&out)
-        .arg("--resume")
-        .assert()
-        .success();
+    resume(&sweep, &out).assert().success();
     assert_eq!(
         mtimes(&out)[..kept.len()],
         kept[..],
@@ -454,20 +451,11 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     let last = out.join("cases/case_0005");
     fs::remove_dir_all(&last).unwrap();
     let before = mtimes(&out);
-    let resume = || {
-        let mut cmd = orchestrator();
-        cmd.arg("sweep")
-            .arg(&sweep)
-            .arg("--out")
-            .arg(&out)
-            .arg("--resume");
-        cmd
-    };
 
     // Other FMU bytes: a file added to the plant's archive.
     let pristine = fs::read(&plant).unwrap();
     rebuild(&plant);
-    resume().fails(&["cannot resume", "case 0", "different FMUs", "--out"]);
+    resume(&sweep, &out).fails(&["cannot resume", "case 0", "different FMUs", "--out"]);
     assert!(!last.exists(), "a refused resume ran a case");
     assert_eq!(
         mtimes(&out),
@@ -482,12 +470,12 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
         original.replace("[metrics]\n", "[metrics]\nrho = 2.0\n"),
     )
     .unwrap();
-    resume().fails(&["cannot resume", "case 0", "base.toml"]);
+    resume(&sweep, &out).fails(&["cannot resume", "case 0", "base.toml"]);
     assert!(!last.exists(), "a refused resume ran a case");
 
     // Both restored: the sweep goes on and ends as the uninterrupted run did.
     fs::write(&base_file, &original).unwrap();
-    resume().assert().success();
+    resume(&sweep, &out).assert().success();
     assert_eq!(
         mtimes(&out)[..5],
         before[..],
@@ -511,7 +499,7 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     fs::remove_dir_all(&middle).unwrap();
     fs::rename(other.join("cases/case_0002"), &middle).unwrap();
     fs::remove_dir_all(&last).unwrap();
-    resume().fails(&["cannot resume", "case 2", "base.toml"]);
+    resume(&sweep, &out).fails(&["cannot resume", "case 2", "base.toml"]);
     assert!(!last.exists(), "a refused resume ran a case");
 
     // Cases of earlier versions record only how they ended: their first and last are
@@ -523,9 +511,9 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
         fs::write(&outcome, "status = \"completed\"\n").unwrap();
     }
     rebuild(&plant);
-    resume().fails(&["cannot resume", "case 0", "different FMUs"]);
+    resume(&sweep, &out).fails(&["cannot resume", "case 0", "different FMUs"]);
     fs::write(&plant, &pristine).unwrap();
-    resume().assert().success();
+    resume(&sweep, &out).assert().success();
     for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
         assert!(want == have, "{name} differs after the last resume");
     }
