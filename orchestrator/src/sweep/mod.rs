@@ -562,7 +562,8 @@ fn first_difference<'t>(a: &'t toml::Table, b: &'t toml::Table) -> Option<&'t St
 
 /// `outcome.toml`: how a case ended, and what it ran: the [`scenario_digest`] of its
 /// scenario and each FMU file's digest ([`BaseFmus::ran_with`]). Cases of earlier versions
-/// recorded only how they ended.
+/// recorded only how they ended. Written by [`run_case`], read by the resume check and by
+/// the results.
 #[derive(Debug, serde::Serialize, serde::Deserialize)]
 struct CaseOutcome {
     status: String,

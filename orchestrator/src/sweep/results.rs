@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::spec::{RESULT_COLUMNS, SweepSpec};
-use super::{SweepError, case_dir, write_text};
+use super::{CaseOutcome, SweepError, case_dir, write_text};
 use crate::campaign::read_summary;
 use crate::output::{OutputError, sweep_plots, write_table_csv};
 
@@ -69,13 +69,6 @@ impl CaseResult {
     }
 }
 
-#[derive(Debug, serde::Deserialize)]
-struct Outcome {
-    status: String,
-    #[serde(default)]
-    message: String,
-}
-
 /// Reads every case's summary and outcome.
 pub fn read_cases(spec: &SweepSpec, out: &Path) -> Result<Vec<CaseResult>, SweepError> {
     (0..spec.cases.len())
@@ -85,7 +78,7 @@ pub fn read_cases(spec: &SweepSpec, out: &Path) -> Result<Vec<CaseResult>, Sweep
                 dir: dir.clone(),
                 message: m,
             };
-            let outcome: Outcome = std::fs::read_to_string(dir.join("outcome.toml"))
+            let outcome: CaseOutcome = std::fs::read_to_string(dir.join("outcome.toml"))
                 .map_err(|e| bad(format!("outcome.toml: {e}")))
                 .and_then(|t| {
                     toml::from_str(&t).map_err(|e| bad(format!("outcome.toml: {}", e.message())))
@@ -115,7 +108,7 @@ pub fn read_cases(spec: &SweepSpec, out: &Path) -> Result<Vec<CaseResult>, Sweep
                 verdict: CaseResult::judge(&max, failed),
                 max,
                 rms,
-                message: outcome.message,
+                message: outcome.message.unwrap_or_default(),
             })
         })
         .collect()
