@@ -8,9 +8,11 @@ use std::time::SystemTime;
 use crate::{Fmu, ImportError};
 
 /// A file's size and modification time, to notice that it was replaced.
-type FileStamp = (u64, Option<SystemTime>);
+pub type FileStamp = (u64, Option<SystemTime>);
 
-fn stamp(path: &Path) -> Option<FileStamp> {
+/// The [`FileStamp`] of the file at `path`, `None` if it cannot be read. [`KeptFmus`] opens
+/// again an FMU whose file's stamp changed; a sweep stops if one changes while it runs.
+pub fn file_stamp(path: &Path) -> Option<FileStamp> {
     let meta = std::fs::metadata(path).ok()?;
     Some((meta.len(), meta.modified().ok()))
 }
@@ -32,7 +34,7 @@ impl KeptFmus {
         if self.0.len() <= slot {
             self.0.resize(slot + 1, None);
         }
-        let now = stamp(path);
+        let now = file_stamp(path);
         if let Some((fmu, _)) = self.0[slot]
             .as_ref()
             .filter(|(kept, then)| kept.path() == path && Some(*then) == now)

@@ -24,5 +24,5 @@ pub use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION, Status};
 pub use fmu::{DEFAULT_MAX_UNPACKED_MIB, Fmu, MAX_UNPACKED_VAR, file_uri};
 pub use functions::SYMBOLS;
 pub use instance::{FmuState, Instance};
-pub use kept::KeptFmus;
+pub use kept::{FileStamp, KeptFmus, file_stamp};
 pub use logger::{LogRecord, MAX_LOG_RECORDS};

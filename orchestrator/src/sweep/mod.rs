@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use fmi2_import::{Fmu, ImportError, KeptFmus};
+use fmi2_import::{FileStamp, Fmu, ImportError, KeptFmus, file_stamp};
 use fmi2_md::ModelDescription;
 
 pub use self::results::{CaseResult, Verdict, write_results};
@@ -162,13 +162,13 @@ impl BaseFmus {
     fn ran_with(&self, spec: &SweepSpec) -> Result<RanWith, SweepError> {
         let mut ran = RanWith::default();
         for (name, path, _) in &self.fmus {
-            let fmu_error = |e: std::io::Error| SweepError::Fmu {
+            let stamp = file_stamp(path);
+            let bytes = fs::read(path).map_err(|e| SweepError::Fmu {
                 file: spec.base.clone(),
                 fmu: path.clone(),
                 message: e.to_string(),
-            };
-            let stamp = file_stamp(path).map_err(fmu_error)?;
-            let digest = fnv1a(FNV_BASIS, &fs::read(path).map_err(fmu_error)?);
+            })?;
+            let digest = fnv1a(FNV_BASIS, &bytes);
             ran.digests
                 .insert(name.clone(), toml::Value::String(format!("{digest:016x}")));
             ran.stamps.push((path.clone(), stamp));
@@ -196,14 +196,7 @@ struct RanWith {
     /// FMU name → digest of the file's bytes.
     digests: toml::Table,
     /// Each file's path, size and modification time.
-    stamps: Vec<(PathBuf, FileStamp)>,
-}
-
-type FileStamp = (u64, Option<std::time::SystemTime>);
-
-fn file_stamp(path: &Path) -> std::io::Result<FileStamp> {
-    let meta = fs::metadata(path)?;
-    Ok((meta.len(), meta.modified().ok()))
+    stamps: Vec<(PathBuf, Option<FileStamp>)>,
 }
 
 impl RanWith {
@@ -212,7 +205,7 @@ impl RanWith {
     /// Cheap (a `stat` per file), so it runs before every case.
     fn unchanged(&self, spec: &SweepSpec) -> Result<(), SweepError> {
         for (path, then) in &self.stamps {
-            if file_stamp(path).ok().as_ref() != Some(then) {
+            if file_stamp(path).is_none_or(|now| Some(now) != *then) {
                 return Err(SweepError::Fmu {
                     file: spec.base.clone(),
                     fmu: path.clone(),
