@@ -430,6 +430,19 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
     }
 }
 
+/// [`toml_message`] led by the line it points at, for the files the tools write themselves
+/// (`shard.toml`, `outcome.toml`), whose errors name the file but carry no line of their own.
+pub(crate) fn toml_message_at(e: &toml::de::Error, text: &str) -> String {
+    match e.span() {
+        Some(span) => format!(
+            "line {}: {}",
+            line_of(text, span.start),
+            toml_message(e, text)
+        ),
+        None => toml_message(e, text),
+    }
+}
+
 /// The first item of `items` that an earlier one equals: (the earlier index, its own).
 pub(crate) fn first_repeat<T: PartialEq>(items: &[T]) -> Option<(usize, usize)> {
     (1..items.len()).find_map(|j| {

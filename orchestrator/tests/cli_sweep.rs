@@ -390,6 +390,15 @@ fn shards_of_other_fmus_do_not_merge() {
         err.contains("new1") && err.contains("not checked"),
         "no warning: {err}"
     );
+    // A damaged stamp is named with the line the TOML reader stopped at.
+    let text = fs::read_to_string(&stamp).unwrap();
+    let lines = text.lines().count();
+    fs::write(&stamp, format!("{text}shard = \n")).unwrap();
+    merge(&[&old0, &new1], &tmp.path().join("merged_damaged")).fails(&[
+        "new1",
+        "shard.toml: line ",
+        &format!("line {}:", lines + 1),
+    ]);
 }
 
 /// An FMU file replaced while a sweep runs (a rebuild during a long study) stops the sweep
@@ -513,6 +522,12 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     rebuild(&plant);
     resume(&sweep, &out).fails(&["cannot resume", "case 0", "different FMUs"]);
     fs::write(&plant, &pristine).unwrap();
+    // A damaged outcome is named with its line, and nothing runs.
+    let damaged = out.join("cases/case_0003/outcome.toml");
+    fs::write(&damaged, "status = \"completed\"\nscenario = \n").unwrap();
+    resume(&sweep, &out).fails(&["case_0003", "outcome.toml", "line 2:"]);
+    assert!(!last.exists(), "a refused resume ran a case");
+    fs::write(&damaged, "status = \"completed\"\n").unwrap();
     resume(&sweep, &out).assert().success();
     for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
         assert!(want == have, "{name} differs after the last resume");

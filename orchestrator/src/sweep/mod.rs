@@ -31,7 +31,7 @@ use crate::campaign::{
     CampaignError, CampaignOptions, FNV_BASIS, begun_with, fnv1a, run_campaign, scenario_digest,
 };
 use crate::output::{OutputError, write_atomic};
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, toml_message_at};
 
 /// A sweep failure; a failing case is not one (it is recorded as failed and the sweep goes on).
 #[derive(Debug, thiserror::Error)]
@@ -595,7 +595,8 @@ fn check_kept_cases(
             message,
         };
         let text = fs::read_to_string(&file).map_err(|e| bad(e.to_string()))?;
-        let outcome: CaseOutcome = toml::from_str(&text).map_err(|e| bad(e.message().into()))?;
+        let outcome: CaseOutcome =
+            toml::from_str(&text).map_err(|e| bad(toml_message_at(&e, &text)))?;
         let (Some(ran), Some(fmus)) = (outcome.scenario, outcome.fmus) else {
             unrecorded.push(i);
             continue;
@@ -748,8 +749,13 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
                 stamp_path.display()
             ))
         })?;
-        let s: ShardStamp = toml::from_str(&text)
-            .map_err(|e| SweepError::Merge(format!("{}: {}", stamp_path.display(), e.message())))?;
+        let s: ShardStamp = toml::from_str(&text).map_err(|e| {
+            SweepError::Merge(format!(
+                "{}: {}",
+                stamp_path.display(),
+                toml_message_at(&e, &text)
+            ))
+        })?;
         if s.fingerprint != fp {
             return Err(SweepError::Merge(format!(
                 "{} is a shard of a different sweep (or of an edited {})",

@@ -8,6 +8,7 @@ use super::spec::{RESULT_COLUMNS, SweepSpec};
 use super::{CaseOutcome, SweepError, case_dir, write_text};
 use crate::campaign::read_summary;
 use crate::output::{OutputError, sweep_plots, write_table_csv};
+use crate::scenario::toml_message_at;
 
 /// How a case ended, judged from its max-error history e_0 … e_{K−1}.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,7 +82,8 @@ pub fn read_cases(spec: &SweepSpec, out: &Path) -> Result<Vec<CaseResult>, Sweep
             let outcome: CaseOutcome = std::fs::read_to_string(dir.join("outcome.toml"))
                 .map_err(|e| bad(format!("outcome.toml: {e}")))
                 .and_then(|t| {
-                    toml::from_str(&t).map_err(|e| bad(format!("outcome.toml: {}", e.message())))
+                    toml::from_str(&t)
+                        .map_err(|e| bad(format!("outcome.toml: {}", toml_message_at(&e, &t))))
                 })?;
             let summary = dir.join("summary.csv");
             let rows = if summary.exists() {
