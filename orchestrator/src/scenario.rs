@@ -870,6 +870,16 @@ impl Scenario {
                             return cx.err(p.span(), format!("metrics.pose {:?} must be at least three Real variables (x, y, z)", p.get_ref()));
                         }
                         in_metres(p, "metrics.pose", &port, 3)?;
+                        // Past x, y, z a pose holds its orientation: a length there (the
+                        // plant's six leg lengths, say) means the variable is not a pose.
+                        let md = &mds[port.fmu];
+                        let length = port.value_references[3..].iter().find_map(|&vr| {
+                            let v = md.variable_by_vr(VarType::Real, vr)?;
+                            (md.unit_of(v) == Some("m")).then_some(&v.name)
+                        });
+                        if let Some(name) = length {
+                            return cx.err(p.span(), format!("metrics.pose {:?}: {name} is in m, so this is not a pose (x, y, z, then angles); name the FMU's pose output", p.get_ref()));
+                        }
                         Some(port)
                     }
                 };
