@@ -549,22 +549,22 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
         .says(&format!("{}:15:", force.display()))
         .says("metrics.length \"plant.force\": force[1] is in N; the metrics need lengths in m");
     // The leg lengths are in metres as a pose's x, y, z are, but a pose goes on in angles.
-    let lengths = write(
-        "lengths",
-        "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
-         pose = \"plant.length\"\ntrajectory = { kind = \"line\", duration = 15.0 }\n",
-    );
+    let with_pose = |variable: &str| {
+        write(
+            variable,
+            &format!(
+                "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
+                 pose = \"plant.{variable}\"\ntrajectory = {{ kind = \"line\", duration = 15.0 }}\n"
+            ),
+        )
+    };
+    let lengths = with_pose("length");
     run_fails(&lengths, &out)
         .says(&format!("{}:16:", lengths.display()))
         .says("metrics.pose \"plant.length\": length[4] is in m, so this is not a pose");
-    let pose = write(
-        "pose",
-        "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
-         pose = \"plant.pose\"\ntrajectory = { kind = \"line\", duration = 15.0 }\n",
-    );
     orchestrator()
         .arg("run")
-        .arg(&pose)
+        .arg(with_pose("pose"))
         .arg("--out")
         .arg(dir.path().join("pose_out"))
         .assert()
