@@ -73,8 +73,10 @@ pub struct RunArgs {
     pub crash_at: Option<usize>,
 }
 
-/// `simulate`.
+/// `simulate`. A negative number after an option is its value: `--start-time -1` is a start
+/// time (FMI allows one before 0), not an unknown option.
 #[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
 pub struct SimulateArgs {
     /// The FMU (.fmu).
     pub fmu: PathBuf,
@@ -117,8 +119,9 @@ pub struct InfoArgs {
     pub fmu: PathBuf,
 }
 
-/// `paper`.
+/// `paper`. A negative number after an option is its value, refused with the option's name.
 #[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
 pub struct PaperArgs {
     /// Directory holding CkcmPlant.fmu and HlcsController.fmu.
     #[arg(long, default_value = "target/fmu")]

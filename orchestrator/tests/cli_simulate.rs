@@ -181,6 +181,36 @@ fn a_span_that_is_no_whole_number_of_steps_ends_with_a_shorter_step() {
     assert_eq!(column(&rec, "steps"), [0.0, 1.0, 2.0, 3.0]);
 }
 
+/// A negative number after an option is its value: FMI allows a start time before 0, and a
+/// negative step size is refused with its own message rather than read as an unknown option
+/// (the parser's tip for that, `-- -1`, would have made it the FMU's path).
+#[test]
+fn negative_times_are_values_not_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(dir.path());
+    let out = dir.path().join("out.csv");
+    orchestrator()
+        .arg("simulate")
+        .arg(&fmu)
+        .args(["--start-time", "-0.02", "--stop-time", "0"])
+        .args(["--step-size", "0.01", "--record", "steps", "-o"])
+        .arg(&out)
+        .assert()
+        .success();
+    let rec = read_csv(&out);
+    assert_eq!(rec.time, [-0.02, -0.02 + 0.01, 0.0]);
+    assert_eq!(column(&rec, "steps"), [0.0, 1.0, 2.0]);
+    let o = orchestrator()
+        .arg("simulate")
+        .arg(&fmu)
+        .args(["--step-size", "-0.01"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("step size -0.01 s must be positive"), "{err}");
+}
+
 #[test]
 fn an_fmu_error_mid_run_names_the_time_and_the_call_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
