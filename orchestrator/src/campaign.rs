@@ -980,7 +980,7 @@ pub fn run_campaign(
             // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
             for sub in ["trials", "memory"] {
                 let p = dir.join(sub);
-                fs::create_dir_all(&p)
+                crate::output::create_folder(&p)
                     .map_err(|source| CampaignError::CreateDir { path: p, source })?;
             }
             if k == first {

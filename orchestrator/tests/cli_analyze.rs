@@ -190,6 +190,17 @@ fn bad_settings_are_named_and_nothing_is_written() {
         assert!(stderr.contains(expected), "{extra:?}: {stderr}");
         assert!(!out.exists(), "{extra:?} wrote {}", out.display());
     }
+    // A file where the output folder goes, or above it, is named.
+    let taken = dir.path().join("taken");
+    std::fs::write(&taken, "a user's file").unwrap();
+    for out in [taken.clone(), taken.join("out")] {
+        let o = analyze(&scenario, &out, &[]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success());
+        let expected = format!("{} is a file, not a folder", taken.display());
+        assert!(stderr.contains(&expected), "{stderr}");
+    }
+    assert_eq!(std::fs::read_to_string(&taken).unwrap(), "a user's file");
 }
 
 #[test]

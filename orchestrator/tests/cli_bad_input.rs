@@ -456,6 +456,32 @@ fn jobs_zero_is_refused_by_run_sweep_and_paper() {
     }
 }
 
+/// An output folder given where a file is (or below one) names the file: the system's own
+/// "File exists" and "Not a directory" did not say which path was in the way. (`analyze`:
+/// `cli_analyze.rs`; `sweep`: `cli_sweep.rs`.)
+#[test]
+fn a_file_where_an_output_folder_goes_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = scenario_for(dir.path(), "unit", &foreign_fmu(dir.path()));
+    let taken = dir.path().join("taken");
+    std::fs::write(&taken, "a user's file").unwrap();
+    let below = taken.join("out");
+    for out in [&taken, &below] {
+        fails(
+            &[
+                "run".as_ref(),
+                scenario.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            &below,
+        )
+        .says(&format!("cannot create {}", out.display()))
+        .says(&format!("{} is a file, not a folder", taken.display()));
+    }
+    assert_eq!(std::fs::read_to_string(&taken).unwrap(), "a user's file");
+}
+
 #[test]
 fn simulate_given_one_variable_twice() {
     let dir = tempfile::tempdir().unwrap();

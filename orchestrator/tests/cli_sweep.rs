@@ -638,6 +638,26 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
         "a failed merge wrote {}",
         merged.display()
     );
+    // A file where the output folder goes is named.
+    let taken = tmp.path().join("taken");
+    fs::write(&taken, "a user's file").unwrap();
+    let named = format!("{} is a file, not a folder", taken.display());
+    orchestrator()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(taken.join("out"))
+        .fails(&[&named]);
+    let a1 = shard_of_two(&sweep, 1, tmp.path(), "a1");
+    orchestrator()
+        .args(["sweep", "merge"])
+        .arg(&sweep)
+        .arg(&a0)
+        .arg(&a1)
+        .arg("--out")
+        .arg(&taken)
+        .fails(&[&named]);
+    assert_eq!(fs::read_to_string(&taken).unwrap(), "a user's file");
 }
 
 #[test]

@@ -30,7 +30,7 @@ impl DirLock {
     /// Creates `dir` if needed and locks it, or fails naming the run that holds it.
     pub fn acquire(dir: &Path) -> Result<DirLock, CampaignError> {
         let created = (!dir.exists()).then(|| dir.to_path_buf());
-        fs::create_dir_all(dir).map_err(|source| CampaignError::CreateDir {
+        crate::output::create_folder(dir).map_err(|source| CampaignError::CreateDir {
             path: dir.to_path_buf(),
             source,
         })?;

@@ -32,7 +32,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 .to_string_lossy()
         ))
     });
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    orchestrator::output::create_folder(&out)
+        .with_context(|| format!("cannot create {}", out.display()))?;
     let name = args
         .scenario
         .file_name()

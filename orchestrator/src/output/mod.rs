@@ -36,6 +36,18 @@ pub fn to_stdout(
     }
 }
 
+/// `fs::create_dir_all` for an output folder, with a file in its way named: the system's
+/// own "File exists" or "Not a directory" does not say which path is the file.
+pub fn create_folder(dir: &std::path::Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| match dir.ancestors().find(|a| a.is_file()) {
+        Some(file) => std::io::Error::new(
+            e.kind(),
+            format!("{} is a file, not a folder", file.display()),
+        ),
+        None => e,
+    })
+}
+
 /// A simulation time for messages: to the nanosecond, trailing zeros dropped, so a time the
 /// master reached by adding steps reads as the user wrote it (0.943, not 0.9430000000000001).
 pub fn seconds(t: f64) -> String {

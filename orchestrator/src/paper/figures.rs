@@ -174,7 +174,7 @@ fn scale(v: &[f64], f: f64) -> Vec<f64> {
 /// Writes every figure into `figures/`.
 pub fn write_figures(opts: &PaperOptions, data: &[CaseData]) -> Result<(), PaperError> {
     let fig = opts.out_dir.join("figures");
-    std::fs::create_dir_all(&fig)
+    crate::output::create_folder(&fig)
         .map_err(|e| PaperError::Invalid(format!("cannot create {}: {e}", fig.display())))?;
     for kind in TRAJECTORIES {
         for scheme in Scheme::ALL {

@@ -30,7 +30,7 @@ pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
 use crate::campaign::{
     CampaignError, CampaignOptions, FNV_BASIS, begun_with, fnv1a, run_campaign, scenario_digest,
 };
-use crate::output::{OutputError, write_atomic};
+use crate::output::{OutputError, create_folder, write_atomic};
 use crate::scenario::{Scenario, toml_message_at};
 
 /// A sweep failure; a failing case is not one (it is recorded as failed and the sweep goes on).
@@ -458,7 +458,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     check_kept_cases(spec, &plans, out, &ended, &ran_with.digests)?;
     // The stamp first: a folder that holds anything else then always says which sweep it is.
     let create = |dir: PathBuf| {
-        fs::create_dir_all(dir).map_err(|e| SweepError::Dir {
+        create_folder(&dir).map_err(|e| SweepError::Dir {
             dir: out.clone(),
             message: e.to_string(),
         })
@@ -687,7 +687,7 @@ fn run_case(
             });
         }
     };
-    fs::create_dir_all(&dir).map_err(|e| SweepError::Dir {
+    create_folder(&dir).map_err(|e| SweepError::Dir {
         dir: dir.clone(),
         message: e.to_string(),
     })?;
@@ -832,7 +832,7 @@ pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(),
             )));
         }
     }
-    fs::create_dir_all(out.join("cases")).map_err(|e| SweepError::Dir {
+    create_folder(&out.join("cases")).map_err(|e| SweepError::Dir {
         dir: out.to_path_buf(),
         message: e.to_string(),
     })?;
@@ -850,7 +850,7 @@ fn copy_tree(from: &Path, to: &Path) -> Result<(), SweepError> {
         dir: p.to_path_buf(),
         message: e.to_string(),
     };
-    fs::create_dir_all(to).map_err(|e| io(to, e))?;
+    create_folder(to).map_err(|e| io(to, e))?;
     for entry in fs::read_dir(from).map_err(|e| io(from, e))? {
         let entry = entry.map_err(|e| io(from, e))?;
         let src = entry.path();

@@ -207,7 +207,7 @@ fn write_figures(
     results: &[CaseResult],
 ) -> Result<Vec<(String, String)>, OutputError> {
     let fig = out.join("figures");
-    std::fs::create_dir_all(&fig).map_err(|source| OutputError::Io {
+    crate::output::create_folder(&fig).map_err(|source| OutputError::Io {
         path: fig.clone(),
         source,
     })?;
