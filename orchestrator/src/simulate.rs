@@ -433,7 +433,20 @@ impl InputTable {
             .clone();
         match header.get(0) {
             Some("time") => {}
-            Some(other) => bail!("{}: must be `time`, found '{other}'", at(1, 1)),
+            // Spreadsheets set to a decimal comma export `;` or tab between fields.
+            Some(other) => match [';', '\t']
+                .into_iter()
+                .find(|&c| other.starts_with(&format!("time{c}")))
+            {
+                Some(c) => bail!(
+                    "{}: must be `time`, found '{}': the fields are separated by {:?}, and the \
+                     input file needs commas (and `.` as the decimal point)",
+                    at(1, 1),
+                    other.escape_debug(),
+                    c
+                ),
+                None => bail!("{}: must be `time`, found '{other}'", at(1, 1)),
+            },
             None => bail!(
                 "{}:1: empty file, expected a header `time,<inputs>`",
                 path.display()

@@ -356,6 +356,15 @@ fn input_file_errors_name_file_line_and_column() {
         err.contains(&format!("{file}:1: column 1: must be `time`")),
         "{err}"
     );
+    // A spreadsheet's export with a decimal comma puts `;` between the fields.
+    let (err, file) = input_error("time;drive\n0;1,5\n");
+    assert!(
+        err.contains(&format!(
+            "{file}:1: column 1: must be `time`, found 'time;drive'"
+        )) && err.contains("separated by ';'")
+            && err.contains("needs commas"),
+        "{err}"
+    );
     let (err, file) = input_error("time,drive\n0,1\n1\n");
     assert!(
         err.contains(&format!("{file}:3: 1 field(s), expected 2")),
