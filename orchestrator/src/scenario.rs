@@ -385,14 +385,15 @@ pub struct Scenario {
 /// read that never ends, while pipes (`run <(generate)`) still work.
 pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 
-/// Reads a scenario or sweep file as UTF-8 text of at most [`MAX_TEXT_BYTES`].
+/// Reads a scenario or sweep file as UTF-8 text of at most [`MAX_TEXT_BYTES`]; text in
+/// another encoding is named as such (UTF-16), or by the line of its first bad byte.
 pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
-    let mut text = String::new();
+    let mut bytes = Vec::new();
     std::fs::File::open(path)?
         .take(MAX_TEXT_BYTES + 1)
-        .read_to_string(&mut text)?;
-    if text.len() as u64 > MAX_TEXT_BYTES {
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_TEXT_BYTES {
         return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidData,
             format!(
@@ -402,7 +403,20 @@ pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
             ),
         ));
     }
-    Ok(text)
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let message = if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+            "it is UTF-16 text (an editor's \"Unicode\"); save it as UTF-8".to_string()
+        } else {
+            let at = e.utf8_error().valid_up_to();
+            let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+            format!(
+                "line {line} is not UTF-8 text (byte 0x{:02x}); save the file as UTF-8",
+                bytes[at]
+            )
+        };
+        std::io::Error::new(std::io::ErrorKind::InvalidData, message)
+    })
 }
 
 /// Line (1-based) of a byte offset.

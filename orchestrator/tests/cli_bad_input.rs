@@ -369,6 +369,39 @@ fn a_date_where_a_number_belongs_is_called_a_date() {
     }
 }
 
+/// A scenario saved in another encoding than UTF-8 (Windows editors offer UTF-16 as
+/// "Unicode", and Latin-1) is named with what it is and the line of the first bad byte,
+/// not only "stream did not contain valid UTF-8". A UTF-8 byte-order mark and CRLF line
+/// ends, which the same editors write, are read.
+#[test]
+fn a_scenario_not_in_utf8_is_named_with_its_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = scenario_for(dir.path(), "unit", &foreign_fmu(dir.path()));
+    let text = std::fs::read_to_string(&good).unwrap();
+    let out = dir.path().join("out");
+    let utf16 = dir.path().join("utf16.toml");
+    let mut bytes = vec![0xff, 0xfe];
+    bytes.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+    std::fs::write(&utf16, bytes).unwrap();
+    run_fails(&utf16, &out).says("utf16.toml: cannot read the scenario: it is UTF-16 text");
+    let latin1 = dir.path().join("latin1.toml");
+    let mut bytes = text.replacen("\n", "\n# M\u{fc}nster\n", 2).into_bytes();
+    // ü in Latin-1 is one byte, 0xfc: replace its two UTF-8 bytes (0xc3 0xbc) on line 2.
+    let at = bytes.windows(2).position(|w| w == [0xc3, 0xbc]).unwrap();
+    bytes.splice(at..at + 2, [0xfc]);
+    std::fs::write(&latin1, bytes).unwrap();
+    run_fails(&latin1, &out).says("line 2 is not UTF-8 text (byte 0xfc)");
+    let windows = dir.path().join("windows.toml");
+    std::fs::write(&windows, format!("\u{feff}{}", text.replace('\n', "\r\n"))).unwrap();
+    orchestrator()
+        .arg("run")
+        .arg(&windows)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+}
+
 #[test]
 fn simulate_setting_an_unknown_variable() {
     let dir = tempfile::tempdir().unwrap();
