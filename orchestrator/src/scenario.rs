@@ -457,6 +457,13 @@ pub(crate) fn toml_message_at(e: &toml::de::Error, text: &str) -> String {
     }
 }
 
+/// Whether `text` is a TOML document with one of `keys` at its top level: a sweep file given
+/// where a scenario goes, or the other way round, is told apart from a scenario with a typo.
+pub(crate) fn has_top_level_key(text: &str, keys: &[&str]) -> bool {
+    text.parse::<toml::Table>()
+        .is_ok_and(|doc| keys.iter().any(|k| doc.contains_key(*k)))
+}
+
 /// The first item of `items` that an earlier one equals: (the earlier index, its own).
 pub(crate) fn first_repeat<T: PartialEq>(items: &[T]) -> Option<(usize, usize)> {
     (1..items.len()).find_map(|j| {
@@ -548,11 +555,11 @@ impl Scenario {
             problems: Default::default(),
         };
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
-            ScenarioError::new(
-                file,
-                e.span().map(|s| line_of(text, s.start)),
-                toml_message(&e, text),
-            )
+            let mut message = toml_message(&e, text);
+            if has_top_level_key(text, &["base", "axis"]) {
+                message += " (this is a sweep file: `orchestrator sweep` runs it)";
+            }
+            ScenarioError::new(file, e.span().map(|s| line_of(text, s.start)), message)
         })?;
         let h = *raw.step_size.get_ref();
         if !(h.is_finite() && h > 0.0) {

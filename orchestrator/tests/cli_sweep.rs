@@ -612,6 +612,26 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
         .arg(&sweep)
         .args(["--shard", "3/3"])
         .fails(&["K must be below N"]);
+    // A scenario given to `sweep`, and a sweep file given to `run`, say what they are.
+    let base = tmp.path().join("base.toml");
+    let out = tmp.path().join("mixed");
+    orchestrator()
+        .arg("sweep")
+        .arg(&base)
+        .arg("--out")
+        .arg(&out)
+        .fails(&[
+            // The reader names the unknown keys in sorted order: `connection` first.
+            "base.toml:13: unknown field `connection`",
+            "this is a scenario",
+        ]);
+    orchestrator()
+        .arg("run")
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&out)
+        .fails(&["sweep.toml:4: unknown field `axis`", "this is a sweep file"]);
+    assert!(!out.exists(), "a refused file wrote {}", out.display());
     // Shards of two different sweeps, and a missing shard, do not merge.
     let other = tmp.path().join("other.toml");
     fs::write(&other, text.replace("seed = 3", "seed = 4")).unwrap();

@@ -12,7 +12,7 @@ use rand_distr::{Distribution, Normal, Uniform};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scenario::{first_repeat, line_of, read_text, toml_message};
+use crate::scenario::{first_repeat, has_top_level_key, line_of, read_text, toml_message};
 
 /// A sweep-file problem: file, line (when known) and message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -191,10 +191,17 @@ impl SweepSpec {
             line: (span.end > 0).then(|| line_of(text, span.start)),
             message,
         };
-        let raw: RawSweep = toml::from_str(text).map_err(|e| SweepSpecError {
-            file: file.to_path_buf(),
-            line: e.span().map(|s| line_of(text, s.start)),
-            message: toml_message(&e, text),
+        let raw: RawSweep = toml::from_str(text).map_err(|e| {
+            let mut message = toml_message(&e, text);
+            if has_top_level_key(text, &["fmu", "connection", "step_size"]) {
+                message += " (this is a scenario: `orchestrator run` runs it, and a sweep file \
+                            names it as its `base`)";
+            }
+            SweepSpecError {
+                file: file.to_path_buf(),
+                line: e.span().map(|s| line_of(text, s.start)),
+                message,
+            }
         })?;
         let base = file
             .parent()
