@@ -163,22 +163,28 @@ fn start_values_of_every_type_reach_the_fmu() {
     assert_ne!(by_name, symplectic_run(&fmu, &["--set", "x0=0.1"]));
 }
 
-#[test]
-fn a_span_that_is_no_whole_number_of_steps_ends_with_a_shorter_step() {
-    let dir = tempfile::tempdir().unwrap();
-    let fmu = foreign_fmu(dir.path());
-    let out = dir.path().join("out.csv");
+/// `simulate` of the foreign FMU from `start` to `stop` in steps of 0.01 s: (time, steps).
+fn step_count(fmu: &Path, start: &str, stop: &str) -> (Vec<f64>, Vec<f64>) {
+    let out = fmu.with_file_name("steps.csv");
     orchestrator()
         .arg("simulate")
-        .arg(&fmu)
-        .args(["--start-time", "0.5", "--stop-time", "0.525"])
+        .arg(fmu)
+        .args(["--start-time", start, "--stop-time", stop])
         .args(["--step-size", "0.01", "--record", "steps", "-o"])
         .arg(&out)
         .assert()
         .success();
     let rec = read_csv(&out);
-    assert_eq!(rec.time, [0.5, 0.5 + 0.01, 0.5 + 2.0 * 0.01, 0.525]);
-    assert_eq!(column(&rec, "steps"), [0.0, 1.0, 2.0, 3.0]);
+    let steps = column(&rec, "steps").to_vec();
+    (rec.time, steps)
+}
+
+#[test]
+fn a_span_that_is_no_whole_number_of_steps_ends_with_a_shorter_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let (time, steps) = step_count(&foreign_fmu(dir.path()), "0.5", "0.525");
+    assert_eq!(time, [0.5, 0.5 + 0.01, 0.5 + 2.0 * 0.01, 0.525]);
+    assert_eq!(steps, [0.0, 1.0, 2.0, 3.0]);
 }
 
 /// A negative number after an option is its value: FMI allows a start time before 0, and a
@@ -188,18 +194,9 @@ fn a_span_that_is_no_whole_number_of_steps_ends_with_a_shorter_step() {
 fn negative_times_are_values_not_options() {
     let dir = tempfile::tempdir().unwrap();
     let fmu = foreign_fmu(dir.path());
-    let out = dir.path().join("out.csv");
-    orchestrator()
-        .arg("simulate")
-        .arg(&fmu)
-        .args(["--start-time", "-0.02", "--stop-time", "0"])
-        .args(["--step-size", "0.01", "--record", "steps", "-o"])
-        .arg(&out)
-        .assert()
-        .success();
-    let rec = read_csv(&out);
-    assert_eq!(rec.time, [-0.02, -0.02 + 0.01, 0.0]);
-    assert_eq!(column(&rec, "steps"), [0.0, 1.0, 2.0]);
+    let (time, steps) = step_count(&fmu, "-0.02", "0");
+    assert_eq!(time, [-0.02, -0.02 + 0.01, 0.0]);
+    assert_eq!(steps, [0.0, 1.0, 2.0]);
     let o = orchestrator()
         .arg("simulate")
         .arg(&fmu)
