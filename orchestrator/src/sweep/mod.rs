@@ -2,6 +2,7 @@
 //! memory-update settings, and one ordinary campaign per case.
 //!
 //! Output directory layout:
+//! - `.lock` while the sweep runs (the campaign's folder lock: one sweep per folder);
 //! - `sweep.toml`: the sweep file as run;
 //! - `cases/case_NNNN/`: each case, a complete `run` campaign directory (its `scenario.toml`
 //!   reruns it alone) plus `outcome.toml` once it has ended (completed or failed, and why;
@@ -28,7 +29,8 @@ use fmi2_md::ModelDescription;
 pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
 use crate::campaign::{
-    CampaignError, CampaignOptions, FNV_BASIS, begun_with, fnv1a, run_campaign, scenario_digest,
+    CampaignError, CampaignOptions, DirLock, FNV_BASIS, LOCK_FILE, begun_with, fnv1a, run_campaign,
+    scenario_digest,
 };
 use crate::output::{OutputError, create_folder, write_atomic};
 use crate::scenario::{Scenario, toml_message_at};
@@ -75,6 +77,9 @@ pub enum SweepError {
     Output(#[from] OutputError),
     #[error("cannot merge: {0}")]
     Merge(String),
+    /// The output folder is another sweep's, running now.
+    #[error(transparent)]
+    Locked(Box<CampaignError>),
 }
 
 /// How to run a sweep.
@@ -398,13 +403,17 @@ fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
     write_atomic(path, |w| w.write_all(text.as_bytes()))
 }
 
-/// Whether `dir` exists and holds anything but temporary files of an interrupted write: a
-/// sweep's output folder must not, unless resumed. A run killed while writing its first file
-/// (the stamp) leaves only such a temporary, and must start again rather than be refused.
+/// Whether `dir` exists and holds anything but temporary files of an interrupted write and
+/// the lock: a sweep's output folder must not, unless resumed. A run killed while writing
+/// its first file (the stamp) leaves only such a temporary and its lock file, and must start
+/// again rather than be refused.
 fn holds_files(dir: &Path) -> bool {
     fs::read_dir(dir).is_ok_and(|d| {
-        d.filter_map(Result::ok)
-            .any(|e| !crate::campaign::is_temporary(&e.file_name().to_string_lossy()))
+        d.filter_map(Result::ok).any(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name != LOCK_FILE && !crate::campaign::is_temporary(&name)
+        })
     })
 }
 
@@ -425,6 +434,9 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
             message: format!("shard {k}/{n}: K must be below N"),
         });
     }
+    // One sweep per folder at a time: a second one, or a resume, started while this one runs
+    // would take up the same cases and stop on the first it finds locked, part way through.
+    let _lock = DirLock::acquire(out).map_err(|e| SweepError::Locked(Box::new(e)))?;
     let fp = fingerprint(spec);
     let stamp = out.join("sweep.toml");
     if holds_files(out) {
