@@ -631,7 +631,7 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
 }
 
 #[test]
-fn paper_names_its_bad_options_and_a_missing_fmu_once() {
+fn paper_names_its_bad_options_a_missing_fmu_and_a_folder_in_use() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("study");
     fails(
@@ -657,6 +657,27 @@ fn paper_names_its_bad_options_and_a_missing_fmu_once() {
         &out,
     )
     .says_once(&missing.join("CkcmPlant.fmu").display().to_string());
+    // A study whose folder another study holds is refused at once, naming the holder, and
+    // writes nothing: before, it ran the cases the first had not reached and stopped part
+    // way, on the first one the first study held.
+    std::fs::create_dir(&out).unwrap();
+    let held = orchestrator::campaign::DirLock::acquire(&out).unwrap();
+    let fmu_dir = built_fmu("CkcmPlant").parent().unwrap().to_path_buf();
+    for resume in [&[][..], &["--resume".as_ref()][..]] {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            fmu_dir.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ];
+        args.extend(resume);
+        fails(&args, &out.join("line"))
+            .says(&format!("{} is in use by another run", out.display()))
+            .says(&format!("pid {}", std::process::id()));
+        assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1, "only the lock");
+    }
+    drop(held);
 }
 
 /// FMUs in a folder whose name is not valid UTF-8 (Latin-1 bytes, as on old mounts): TOML

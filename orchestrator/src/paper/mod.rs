@@ -30,7 +30,7 @@ pub use self::cases::{CaseResult, Scheme, case_dir};
 use self::cases::{TRAJECTORIES, traj_slug};
 use self::figures::CaseData;
 pub use self::scenario::{recorded_trials, scenario_toml};
-use crate::campaign::{CampaignError, trial_csv};
+use crate::campaign::{CampaignError, DirLock, trial_csv};
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
 
 /// Study settings.
@@ -135,6 +135,9 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
         let p = opts.fmu_dir.join(name);
         Fmu::open(&p).map_err(|e| PaperError::Fmu(Box::new(e)))?;
     }
+    // One study per folder at a time: a second one started while this one runs would take
+    // up the same cases and stop part way on the first it finds locked.
+    let _lock = DirLock::acquire(&opts.out_dir)?;
     let cases: Vec<(TrajectoryKind, Scheme)> = TRAJECTORIES
         .into_iter()
         .flat_map(|k| Scheme::ALL.map(|s| (k, s)))
