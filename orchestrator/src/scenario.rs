@@ -519,6 +519,20 @@ impl Ctx<'_> {
 }
 
 impl Scenario {
+    /// A `record.trials` entry at or beyond the trial count, as a message. Not an error of the
+    /// file: a campaign run with `--trials N` saves its scenario.toml with `trials = N` and
+    /// the original selection, which an extended run (`--resume --trials M`) still records.
+    /// `run` warns of it, and a sweep refuses a case with one (its count is the sweep's).
+    pub fn record_beyond_trials(&self) -> Option<String> {
+        let last = self.record.trials.as_ref()?.last().copied()?;
+        (last >= self.trials).then(|| {
+            format!(
+                "record.trials lists trial {last}, but trials are numbered 0..{}",
+                self.trials - 1
+            )
+        })
+    }
+
     /// Reads the scenario file, opens every FMU it names and validates the scenario against
     /// their model descriptions: the scenario, its text (kept with the results) and the FMUs
     /// in scenario order.
@@ -804,16 +818,9 @@ impl Scenario {
         };
         let rec_trials = match &raw.record.trials {
             None => None,
+            // A trial beyond the count is allowed here (see `Scenario::record_beyond_trials`):
+            // `run --trials N` saves a scenario.toml whose count may be below it.
             Some(t) => {
-                if let Some(bad) = t.get_ref().iter().find(|&&k| k >= trials) {
-                    cx.keep::<()>(cx.err(
-                        t.span(),
-                        format!(
-                            "record.trials lists trial {bad}, but trials are numbered 0..{}",
-                            trials - 1
-                        ),
-                    ));
-                }
                 if let Some((_, j)) = first_repeat(t.get_ref()) {
                     let twice = t.get_ref()[j];
                     cx.keep::<()>(

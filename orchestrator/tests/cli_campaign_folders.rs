@@ -473,6 +473,44 @@ fn the_saved_scenario_reruns_and_resumes_from_the_output_folder() {
     );
 }
 
+/// A campaign run with `--trials` below a trial its `[record] trials` names saves a
+/// scenario.toml with the lower count and the selection as written, so the run from that
+/// file warns instead of refusing it ("record.trials lists trial 2, but trials are numbered
+/// 0..0", which it did before), and an extended resume from it records the trial.
+#[test]
+fn a_run_with_fewer_trials_than_it_records_resumes_from_its_saved_scenario() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let text = std::fs::read_to_string(&s).unwrap();
+    std::fs::write(
+        &s,
+        text.replace("[record]\n", "[record]\ntrials = [0, 2]\n"),
+    )
+    .unwrap();
+    let whole = tmp.path().join("whole");
+    let o = run(&s, &whole, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+
+    let out = tmp.path().join("out");
+    let o = run(&s, &out, &["--trials", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "record.trials lists trial 2, but trials are numbered 0..0; that trial is recorded \
+             only if the campaign is extended"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    let saved = out.join("scenario.toml");
+    let o = run(&saved, &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&saved, &out, &["--resume", "--trials", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&whole, &out, "after extending from the saved scenario");
+}
+
 /// A console that goes away (stdout and stderr into pipes whose reader has exited, as
 /// `run … 2>&1 | head -1` leaves them) neither stops the campaign nor turns its exit code
 /// into a panic's: the run finishes every trial and exits 0.

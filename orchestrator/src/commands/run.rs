@@ -15,6 +15,13 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::ensure!(trials >= 1, "--trials must be at least 1");
         scenario.trials = trials;
     }
+    if let Some(beyond) = scenario.record_beyond_trials() {
+        orchestrator::console!(
+            "warning: {}: {beyond}; that trial is recorded only if the campaign is extended \
+             (`--resume --trials`)",
+            args.scenario.display()
+        );
+    }
     if let Some(format) = args.record_format {
         scenario.record.format = format;
     }

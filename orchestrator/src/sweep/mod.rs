@@ -393,6 +393,10 @@ fn plan(
             let file = case_dir(out, i).join("scenario.toml");
             let scenario = Scenario::parse(&text, &file, |p| base.md(p))
                 .map_err(|e| case_err(e.messages()))?;
+            // The case's trial count is the sweep's: a recorded trial beyond it is a mistake.
+            if let Some(beyond) = scenario.record_beyond_trials() {
+                return Err(case_err(vec![beyond]));
+            }
             Ok((scenario, text))
         })
         .collect()
