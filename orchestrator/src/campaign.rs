@@ -746,6 +746,28 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
     Ok(())
 }
 
+/// The name of a recorded trial below `completed` (one a resume keeps) written in another
+/// format than `format`.
+fn kept_trial_of_other_format(
+    dir: &Path,
+    completed: usize,
+    format: RecordFormat,
+) -> Option<String> {
+    let entries = fs::read_dir(dir.join("trials")).ok()?;
+    entries.filter_map(Result::ok).find_map(|entry| {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let rest = name.strip_prefix("trial_")?;
+        let other = RecordFormat::value_variants()
+            .iter()
+            .filter(|f| **f != format)
+            .find_map(|f| {
+                rest.strip_suffix(f.exporter().extension())?
+                    .strip_suffix('.')
+            })?;
+        (other.parse::<usize>().ok()? < completed).then_some(name)
+    })
+}
+
 /// Sets the flag that stops the lanes when dropped.
 struct StopLanes<'a>(&'a AtomicBool);
 
@@ -818,6 +840,16 @@ pub fn run_campaign(
                 "it holds {} completed trials, more than the {} asked for (trials in the \
                  scenario or --trials); resume with at least {} trials",
                 p.completed, scenario.trials, p.completed
+            )));
+        }
+        // One campaign, one recording format: trials kept in one format and continued in the
+        // other would leave a folder that a glob of either misses.
+        if let Some(kept) = kept_trial_of_other_format(dir, p.completed, scenario.record.format) {
+            return Err(resume_err(format!(
+                "its recorded trials are in another format ({kept}) than this run would write \
+                 ({}); resume with the campaign's format (`--record-format`, or the \
+                 scenario's `[record] format`), or start a new --out",
+                scenario.record.format.exporter().extension()
             )));
         }
         first = p.completed;

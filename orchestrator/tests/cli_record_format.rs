@@ -130,3 +130,45 @@ fn an_unknown_format_is_refused_with_file_and_line() {
     );
     assert!(!tmp.path().join("out").exists());
 }
+
+/// A campaign keeps one format: resuming a CSV campaign with `--record-format parquet` is
+/// refused, naming a kept file, and changes nothing; resumed in its own format it records
+/// the rest as CSV too. Before, the resumed trials came out as Parquet beside the CSV ones.
+#[test]
+fn a_resume_in_another_format_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = scenario(tmp.path(), "");
+    let out = tmp.path().join("out");
+    let run = |args: &[&str]| {
+        orchestrator()
+            .arg("run")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&["--trials", "1"]).status.success());
+    let o = run(&["--resume", "--record-format", "parquet"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("its recorded trials are in another format (trial_000.csv) than this run would write (parquet)"),
+        "{err}"
+    );
+    let names = |dir: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&out.join("trials")), ["trial_000.csv"]);
+    assert!(run(&["--resume"]).status.success());
+    assert_eq!(
+        names(&out.join("trials")),
+        ["trial_000.csv", "trial_001.csv"]
+    );
+}
