@@ -653,7 +653,19 @@ impl Scenario {
                 let path = base.join(f.path.get_ref());
                 match describe(&path) {
                     Ok(md) => Ok((path, md)),
-                    Err(e) => cx.err(f.path.span(), format!("FMU {name:?}: {e}")),
+                    Err(e) => {
+                        // A shell would have expanded these; TOML does not.
+                        let written = f.path.get_ref();
+                        let unexpanded = !path.exists()
+                            && (written.starts_with('~') || written.contains(['$', '%']));
+                        let hint = if unexpanded {
+                            " (a scenario's paths are taken as written, relative to its folder: \
+                             `~` and environment variables are not expanded)"
+                        } else {
+                            ""
+                        };
+                        cx.err(f.path.span(), format!("FMU {name:?}: {e}{hint}"))
+                    }
                 }
             })();
             let Some((path, md)) = cx.keep(opened) else {

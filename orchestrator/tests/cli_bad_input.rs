@@ -114,6 +114,18 @@ fn missing_fmu_file() {
         &fmu,
         &format!("{}: no such file", fmu.display()),
     );
+    // A path a shell would have expanded says that the scenario's is not; a plain missing
+    // path does not get the hint.
+    let hint = "`~` and environment variables are not expanded";
+    for written in ["~/fmus/X.fmu", "$HOME/X.fmu", "%USERPROFILE%\\X.fmu"] {
+        let scenario = scenario_for(dir.path(), "shell", Path::new(written));
+        run_fails(&scenario, &dir.path().join("out"))
+            .says(&format!("{written}: no such file"))
+            .says(hint);
+    }
+    let scenario = scenario_for(dir.path(), "plain", &fmu);
+    let failure = run_fails(&scenario, &dir.path().join("out"));
+    assert!(!failure.stderr.contains(hint), "{}", failure.stderr);
 }
 
 #[test]
