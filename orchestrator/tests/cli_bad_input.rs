@@ -643,7 +643,7 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
 }
 
 #[test]
-fn paper_names_its_bad_options_a_missing_fmu_and_a_folder_in_use() {
+fn paper_names_its_bad_options_bad_fmus_and_a_folder_in_use() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("study");
     fails(
@@ -669,6 +669,23 @@ fn paper_names_its_bad_options_a_missing_fmu_and_a_folder_in_use() {
         &out,
     )
     .says_once(&missing.join("CkcmPlant.fmu").display().to_string());
+    // Another model under the plant's name is named as such, not as its missing variables.
+    let swapped = dir.path().join("swapped");
+    std::fs::create_dir(&swapped).unwrap();
+    let controller = built_fmu("HlcsController");
+    std::fs::copy(&controller, swapped.join("CkcmPlant.fmu")).unwrap();
+    std::fs::copy(&controller, swapped.join("HlcsController.fmu")).unwrap();
+    fails(
+        &[
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            swapped.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("CkcmPlant.fmu holds the model \"HlcsController\", not \"CkcmPlant\"");
     // A study whose folder another study holds is refused at once, naming the holder, and
     // writes nothing: before, it ran the cases the first had not reached and stopped part
     // way, on the first one the first study held.

@@ -131,9 +131,18 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
         )));
     }
     // Open both FMUs once up front: a missing or broken FMU fails before anything is written.
-    for name in ["CkcmPlant.fmu", "HlcsController.fmu"] {
-        let p = opts.fmu_dir.join(name);
-        Fmu::open(&p).map_err(|e| PaperError::Fmu(Box::new(e)))?;
+    for model in ["CkcmPlant", "HlcsController"] {
+        let p = opts.fmu_dir.join(format!("{model}.fmu"));
+        let fmu = Fmu::open(&p).map_err(|e| PaperError::Fmu(Box::new(e)))?;
+        // Another model under the name would fail later, as a list of missing variables.
+        let held = &fmu.model_description().model_name;
+        if held != model {
+            return Err(PaperError::Invalid(format!(
+                "{} holds the model {held:?}, not {model:?}: --fmu-dir must hold this \
+                 project's CkcmPlant.fmu and HlcsController.fmu (`cargo xtask fmu` builds them)",
+                p.display()
+            )));
+        }
     }
     // One study per folder at a time: a second one started while this one runs would take
     // up the same cases and stop part way on the first it finds locked.
