@@ -519,18 +519,14 @@ impl Ctx<'_> {
 }
 
 impl Scenario {
-    /// A `record.trials` entry at or beyond the trial count, as a message. Not an error of the
-    /// file: a campaign run with `--trials N` saves its scenario.toml with `trials = N` and
-    /// the original selection, which an extended run (`--resume --trials M`) still records.
-    /// `run` warns of it, and a sweep refuses a case with one (its count is the sweep's).
-    pub fn record_beyond_trials(&self) -> Option<String> {
+    /// The last `record.trials` entry when it is at or beyond the trial count. Not an error
+    /// of the file: a campaign run with `--trials N` saves its scenario.toml with
+    /// `trials = N` and the original selection, which an extended run (`--resume --trials
+    /// M`) still records. `run` warns of it, and a sweep refuses a case with one (its count
+    /// is the sweep's).
+    pub fn recorded_trial_beyond_count(&self) -> Option<usize> {
         let last = self.record.trials.as_ref()?.last().copied()?;
-        (last >= self.trials).then(|| {
-            format!(
-                "record.trials lists trial {last}, but trials are numbered 0..{}",
-                self.trials - 1
-            )
-        })
+        (last >= self.trials).then_some(last)
     }
 
     /// Reads the scenario file, opens every FMU it names and validates the scenario against

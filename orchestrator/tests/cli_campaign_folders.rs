@@ -475,8 +475,8 @@ fn the_saved_scenario_reruns_and_resumes_from_the_output_folder() {
 
 /// A campaign run with `--trials` below a trial its `[record] trials` names saves a
 /// scenario.toml with the lower count and the selection as written, so the run from that
-/// file warns instead of refusing it ("record.trials lists trial 2, but trials are numbered
-/// 0..0", which it did before), and an extended resume from it records the trial.
+/// file warns instead of refusing it (before: "record.trials lists trial 2, but trials are
+/// numbered 0..0"), and an extended resume from it records the trial.
 #[test]
 fn a_run_with_fewer_trials_than_it_records_resumes_from_its_saved_scenario() {
     let tmp = tempfile::tempdir().unwrap();
@@ -497,8 +497,8 @@ fn a_run_with_fewer_trials_than_it_records_resumes_from_its_saved_scenario() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(
-            "record.trials lists trial 2, but trials are numbered 0..0; that trial is recorded \
-             only if the campaign is extended"
+            "record.trials lists trial 2, beyond this run's trials 0..0: it is recorded only \
+             if the campaign is extended"
         ),
         "{}",
         stderr(&o)

@@ -15,11 +15,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::ensure!(trials >= 1, "--trials must be at least 1");
         scenario.trials = trials;
     }
-    if let Some(beyond) = scenario.record_beyond_trials() {
+    if let Some(k) = scenario.recorded_trial_beyond_count() {
         orchestrator::console!(
-            "warning: {}: {beyond}; that trial is recorded only if the campaign is extended \
-             (`--resume --trials`)",
-            args.scenario.display()
+            "warning: {}: record.trials lists trial {k}, beyond this run's trials 0..{}: it is \
+             recorded only if the campaign is extended (`--resume --trials`)",
+            args.scenario.display(),
+            scenario.trials - 1
         );
     }
     if let Some(format) = args.record_format {

@@ -394,8 +394,11 @@ fn plan(
             let scenario = Scenario::parse(&text, &file, |p| base.md(p))
                 .map_err(|e| case_err(e.messages()))?;
             // The case's trial count is the sweep's: a recorded trial beyond it is a mistake.
-            if let Some(beyond) = scenario.record_beyond_trials() {
-                return Err(case_err(vec![beyond]));
+            if let Some(k) = scenario.recorded_trial_beyond_count() {
+                return Err(case_err(vec![format!(
+                    "record.trials lists trial {k}, but trials are numbered 0..{}",
+                    scenario.trials - 1
+                )]));
             }
             Ok((scenario, text))
         })
