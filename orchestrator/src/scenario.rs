@@ -826,7 +826,7 @@ impl Scenario {
         };
         let rec_trials = match &raw.record.trials {
             None => None,
-            // A trial beyond the count is allowed here (see `Scenario::record_beyond_trials`):
+            // A trial beyond the count is allowed here (see `Scenario::recorded_trial_beyond_count`):
             // `run --trials N` saves a scenario.toml whose count may be below it.
             Some(t) => {
                 if let Some((_, j)) = first_repeat(t.get_ref()) {
