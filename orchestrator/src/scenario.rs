@@ -826,8 +826,8 @@ impl Scenario {
         };
         let rec_trials = match &raw.record.trials {
             None => None,
-            // A trial beyond the count is allowed here (see `Scenario::recorded_trial_beyond_count`):
-            // `run --trials N` saves a scenario.toml whose count may be below it.
+            // A trial beyond the count is allowed here: `run --trials N` saves a scenario.toml
+            // whose count may be below it (`Scenario::recorded_trial_beyond_count`).
             Some(t) => {
                 if let Some((_, j)) = first_repeat(t.get_ref()) {
                     let twice = t.get_ref()[j];
