@@ -914,7 +914,12 @@ impl Scenario {
                             (md.unit_of(v) == Some("m")).then_some(&v.name)
                         });
                         if let Some(name) = length {
-                            return cx.err(p.span(), format!("metrics.pose {:?}: {name} is in m, so this is not a pose (x, y, z, then angles); name the FMU's pose output", p.get_ref()));
+                            let message = format!(
+                                "metrics.pose {:?}: {name} is in m, so this is not a pose (x, y, \
+                                 z, then angles); name the FMU's pose output",
+                                p.get_ref()
+                            );
+                            return cx.err(p.span(), message);
                         }
                         Some(port)
                     }
