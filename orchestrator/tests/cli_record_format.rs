@@ -154,7 +154,10 @@ fn a_resume_in_another_format_is_refused() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{err}");
     assert!(
-        err.contains("its recorded trials are in another format (trial_000.csv) than this run would write (parquet)"),
+        err.contains(
+            "its recorded trials are in another format (trial_000.csv) than this run would \
+             write (parquet)"
+        ),
         "{err}"
     );
     let names = |dir: &Path| {
