@@ -7,7 +7,7 @@ mod common;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use common::{built_fmu, foreign_fmu, foreign_xml, orchestrator, repackage};
+use common::{built_fmu, foreign_fmu, foreign_fmu_with, foreign_xml, orchestrator, repackage};
 
 /// The outcome of one failing command.
 struct Failure {
@@ -454,7 +454,13 @@ fn paper_names_the_case_of_a_refused_generated_scenario() {
     let fmus = dir.path().join("fmus");
     std::fs::create_dir(&fmus).unwrap();
     std::fs::copy(built_fmu("CkcmPlant"), fmus.join("CkcmPlant.fmu")).unwrap();
-    std::fs::copy(foreign_fmu(dir.path()), fmus.join("HlcsController.fmu")).unwrap();
+    // Named as the controller (the study checks the model name first), but without its
+    // variables, so the generated scenario is what refuses it.
+    let xml = foreign_xml().replace(
+        "modelName=\"DampedOscillator\"",
+        "modelName=\"HlcsController\"",
+    );
+    foreign_fmu_with(&fmus, "HlcsController.fmu", &xml);
     let out = dir.path().join("paper");
     let f = fails(
         &[
@@ -471,7 +477,7 @@ fn paper_names_the_case_of_a_refused_generated_scenario() {
         &out,
     );
     assert!(
-        f.stderr.contains("line / PID: its scenario, generated from the paper options and the FMUs in --fmu-dir, is refused: parameter \"trajectory\": DampedOscillator has no variable"),
+        f.stderr.contains("line / PID: its scenario, generated from the paper options and the FMUs in --fmu-dir, is refused: parameter \"trajectory\": HlcsController has no variable"),
         "{}",
         f.stderr
     );
