@@ -380,6 +380,18 @@ pub fn trial_file(dir: &Path, k: usize, format: RecordFormat) -> PathBuf {
     dir.join("trials").join(format!("trial_{k:03}.{ext}"))
 }
 
+/// The trial and format of a recording's file name ([`trial_file`]'s inverse, any format).
+fn trial_of_file(name: &str) -> Option<(usize, RecordFormat)> {
+    let rest = name.strip_prefix("trial_")?;
+    // Every format's files (clap's list of the variants).
+    RecordFormat::value_variants().iter().find_map(|&f| {
+        let k = rest
+            .strip_suffix(f.exporter().extension())?
+            .strip_suffix('.')?;
+        Some((k.parse().ok()?, f))
+    })
+}
+
 fn memory_file(dir: &Path, k: usize) -> PathBuf {
     dir.join("memory").join(format!("after_trial_{k:03}.f64"))
 }
@@ -728,16 +740,7 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
                         .as_ref()
                         .is_none_or(|k| k.as_deref() != Some(&*name)))
                 || (sub.ends_with("trials")
-                    && text
-                        .strip_prefix("trial_")
-                        .and_then(|r| {
-                            // Every format's files (clap's list of the variants).
-                            RecordFormat::value_variants().iter().find_map(|f| {
-                                r.strip_suffix(f.exporter().extension())?.strip_suffix('.')
-                            })
-                        })
-                        .and_then(|n| n.parse::<usize>().ok())
-                        .is_some_and(|k| k >= completed));
+                    && trial_of_file(&text).is_some_and(|(k, _)| k >= completed));
             if stale {
                 remove_file_if_present(&entry.path())?;
             }
@@ -756,15 +759,8 @@ fn kept_trial_of_other_format(
     let entries = fs::read_dir(dir.join("trials")).ok()?;
     entries.filter_map(Result::ok).find_map(|entry| {
         let name = entry.file_name().to_string_lossy().into_owned();
-        let rest = name.strip_prefix("trial_")?;
-        let other = RecordFormat::value_variants()
-            .iter()
-            .filter(|f| **f != format)
-            .find_map(|f| {
-                rest.strip_suffix(f.exporter().extension())?
-                    .strip_suffix('.')
-            })?;
-        (other.parse::<usize>().ok()? < completed).then_some(name)
+        let (k, f) = trial_of_file(&name)?;
+        (k < completed && f != format).then_some(name)
     })
 }
 
@@ -1165,6 +1161,26 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
     /// The λ-norm weights time since the start of the trial, so the same errors give the same
     /// metrics whatever the scenario's start time; the path error is computed when positions
     /// were recorded (1 mm off the line here).
+    /// A recording's file name gives back its trial and format; other names give nothing.
+    #[test]
+    fn trial_of_file_inverts_trial_file() {
+        for format in [RecordFormat::Csv, RecordFormat::Parquet] {
+            for k in [0, 7, 1234] {
+                let path = trial_file(Path::new("c"), k, format);
+                let name = path.file_name().unwrap().to_str().unwrap();
+                assert_eq!(trial_of_file(name), Some((k, format)), "{name}");
+            }
+        }
+        for name in [
+            "trial_x.csv",
+            "trial_001.f64",
+            "trial_001csv",
+            "after_trial_001.csv",
+        ] {
+            assert_eq!(trial_of_file(name), None, "{name}");
+        }
+    }
+
     #[test]
     fn metrics_are_timed_from_the_trial_start_and_include_the_path() {
         let at_zero = TrialSummary::compute(3, &scenario(0.0), &signals(0.0));
