@@ -475,16 +475,13 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     // Cases of this run (this shard) that ended in an earlier run, and those left to run.
     let (ended, todo): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| finished(out, i));
     check_kept_cases(spec, &plans, out, &ended, &ran_with.digests)?;
-    // The stamp first: a folder that holds anything else then always says which sweep it is.
-    let create = |dir: PathBuf| {
-        create_folder(&dir).map_err(|e| SweepError::Dir {
-            dir: out.clone(),
-            message: e.to_string(),
-        })
-    };
-    create(out.clone())?;
+    // The stamp first (the lock made the folder): a folder that holds anything else then
+    // always says which sweep it is.
     write_text(&stamp, &spec.text)?;
-    create(out.join("cases"))?;
+    create_folder(&out.join("cases")).map_err(|e| SweepError::Dir {
+        dir: out.clone(),
+        message: e.to_string(),
+    })?;
     // Cases of this run (this shard) finished so far, resumed ones included, for progress.
     let done = AtomicUsize::new(ended.len());
     let jobs = opts.jobs.clamp(1, todo.len().max(1));
