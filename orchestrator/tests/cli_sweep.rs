@@ -297,6 +297,48 @@ fn shard_of_two(sweep: &Path, k: usize, dir: &Path, name: &str) -> PathBuf {
     out
 }
 
+/// A folder is resumed as the shard it began as. Resumed as another, it ran that shard's cases
+/// beside its own and then wrote a `shard.toml` naming only the second.
+#[test]
+fn a_folder_resumed_as_another_shard_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = setup(tmp.path(), 1);
+    let s0 = shard_of_two(&sweep, 0, tmp.path(), "s0");
+    let resumed_as = |out: &Path, shard: Option<&str>| {
+        let mut cmd = resume(&sweep, out);
+        if let Some(s) = shard {
+            cmd.args(["--shard", s]);
+        }
+        cmd
+    };
+    // A finished shard says which it is.
+    let before = tree(&s0);
+    resumed_as(&s0, Some("1/2")).fails(&[
+        "s0",
+        "the finished shard 0/2 (its shard.toml)",
+        "this run is shard 1/2",
+        "resume it with the --shard it began with",
+    ]);
+    resumed_as(&s0, None).fails(&["shard 0/2", "the whole sweep (no --shard)"]);
+    assert!(tree(&s0) == before, "a refused resume changed the folder");
+    resumed_as(&s0, Some("0/2")).assert().success();
+    // An unfinished one by its cases.
+    fs::remove_file(s0.join("shard.toml")).unwrap();
+    resumed_as(&s0, Some("1/2")).fails(&["case_0000, which is not among this run's cases"]);
+    assert!(!s0.join("cases/case_0001").exists());
+    resumed_as(&s0, Some("0/2")).assert().success();
+    assert!(s0.join("shard.toml").exists());
+    // A whole sweep's folder is not resumed as a shard.
+    let plain = tmp.path().join("plain");
+    sweep_succeeds(&sweep, &plain, 2);
+    let before = tree(&plain);
+    resumed_as(&plain, Some("1/2")).fails(&["case_0000", "this run is shard 1/2"]);
+    assert!(
+        tree(&plain) == before,
+        "a refused resume changed the folder"
+    );
+}
+
 /// Gives the base scenario in `dir` (of [`setup`]) its own copy of the plant FMU, which a
 /// test may then change; the copy's path and the base scenario's new text.
 fn own_plant(dir: &Path) -> (PathBuf, String) {

@@ -424,6 +424,63 @@ fn holds_files(dir: &Path) -> bool {
     })
 }
 
+/// How a sweep run is split: "shard K/N" or "the whole sweep".
+fn shard_label(shard: Option<(usize, usize)>) -> String {
+    match shard {
+        Some((k, n)) => format!("shard {k}/{n}"),
+        None => "the whole sweep (no --shard)".into(),
+    }
+}
+
+/// A resumed folder goes on as the shard it began as: resumed as another shard, it would run
+/// that shard's cases beside the ones it holds, and its `shard.toml` would then name one shard
+/// while the folder held cases of two. A finished shard says which it is in `shard.toml`; an
+/// unfinished one by its cases' numbers.
+fn check_begun_as(
+    out: &Path,
+    shard: Option<(usize, usize)>,
+    mine: &[usize],
+) -> Result<(), SweepError> {
+    let refuse = |held: String| SweepError::Dir {
+        dir: out.to_path_buf(),
+        message: format!(
+            "it holds {held}, and this run is {}; resume it with the --shard it began with",
+            shard_label(shard)
+        ),
+    };
+    let stamp_path = out.join("shard.toml");
+    if let Ok(text) = fs::read_to_string(&stamp_path) {
+        let s: ShardStamp = toml::from_str(&text).map_err(|e| SweepError::Dir {
+            dir: out.to_path_buf(),
+            message: format!("shard.toml: {}", toml_message_at(&e, &text)),
+        })?;
+        if shard != Some((s.shard, s.shards)) {
+            return Err(refuse(format!(
+                "the finished {} (its shard.toml)",
+                shard_label(Some((s.shard, s.shards)))
+            )));
+        }
+    }
+    let Ok(entries) = fs::read_dir(out.join("cases")) else {
+        return Ok(());
+    };
+    let mut held: Vec<usize> = entries
+        .filter_map(Result::ok)
+        .filter_map(|e| {
+            let name = e.file_name();
+            name.to_str()?.strip_prefix("case_")?.parse().ok()
+        })
+        .collect();
+    held.sort_unstable();
+    match held.iter().find(|i| mine.binary_search(i).is_err()) {
+        Some(&i) => Err(refuse(format!(
+            "case_{i:04}, which is not among this run's cases (begun as another shard, or \
+             unsharded)"
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Whether a case ended (completed or failed) in an earlier run.
 fn finished(out: &Path, i: usize) -> bool {
     case_dir(out, i).join("outcome.toml").exists()
@@ -472,6 +529,7 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
     let mine: Vec<usize> = (0..plans.len())
         .filter(|i| opts.shard.is_none_or(|(k, n)| i % n == k))
         .collect();
+    check_begun_as(out, opts.shard, &mine)?;
     // Cases of this run (this shard) that ended in an earlier run, and those left to run.
     let (ended, todo): (Vec<usize>, Vec<usize>) = mine.iter().partition(|&&i| finished(out, i));
     check_kept_cases(spec, &plans, out, &ended, &ran_with.digests)?;
