@@ -495,7 +495,7 @@ fn an_fmu_replaced_during_a_sweep_stops_it() {
 /// up the cases the first had not reached and stopped part way, on the first case the first
 /// sweep held, while the first went on to find cases the second had started.
 #[test]
-fn a_sweep_into_a_folder_in_use_is_refused_at_once() {
+fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
     let tmp = tempfile::tempdir().unwrap();
     let sweep = setup(tmp.path(), 1);
     let out = tmp.path().join("out");
@@ -518,6 +518,20 @@ fn a_sweep_into_a_folder_in_use_is_refused_at_once() {
             .collect();
         assert_eq!(names, [".lock"], "a refused sweep wrote into the folder");
     }
+    // A merge into it too: two writers would interleave their files.
+    let shards = [0, 1].map(|k| shard_of_two(&sweep, k, tmp.path(), &format!("s{k}")));
+    orchestrator()
+        .args(["sweep", "merge"])
+        .arg(&sweep)
+        .args(&shards)
+        .arg("--out")
+        .arg(&out)
+        .fails(&[&format!("{} is in use by another run", out.display())]);
+    let names: Vec<_> = fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, [".lock"], "a refused merge wrote into the folder");
     drop(held);
     // A lock file left by a killed sweep is no file of the sweep's: a new one starts.
     fs::write(out.join(".lock"), "pid = 1\nhost = \"gone\"\nsince = 0\n").unwrap();

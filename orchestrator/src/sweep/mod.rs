@@ -801,6 +801,8 @@ struct ShardStamp {
 /// Combines shard directories of `spec` into `out`: copies every case and writes the results
 /// exactly as an unsharded run would.
 pub fn merge(spec: &SweepSpec, out: &Path, shard_dirs: &[PathBuf]) -> Result<(), SweepError> {
+    // Two merges (or a merge and a sweep) into one folder would interleave their files.
+    let _lock = DirLock::acquire(out).map_err(|e| SweepError::Locked(Box::new(e)))?;
     // Merged into a folder holding other files, the results would mix with them (or, in a
     // shard's folder, with its shard.toml).
     if holds_files(out) {
