@@ -2,7 +2,8 @@
 //! memory-update settings, and one ordinary campaign per case.
 //!
 //! Output directory layout:
-//! - `.lock` while the sweep runs (the campaign's folder lock: one sweep per folder);
+//! - `.lock` while the sweep or a merge into it runs (the campaign's folder lock: one writer
+//!   per folder);
 //! - `sweep.toml`: the sweep file as run;
 //! - `cases/case_NNNN/`: each case, a complete `run` campaign directory (its `scenario.toml`
 //!   reruns it alone) plus `outcome.toml` once it has ended (completed or failed, and why;
@@ -11,6 +12,7 @@
 //! - `shard.toml` instead of the results when only shard K of N was run (the sweep's
 //!   fingerprint, K, N, and each FMU file's fingerprint); `merge` combines shard directories
 //!   of one sweep and one set of FMUs into the results an unsharded run writes, byte for byte.
+//!   A folder is resumed as the shard it began as.
 //!
 //! Cases are fixed by the sweep file alone (random draws come from its seed), so every shard
 //! and every resume agrees on what case i is.
