@@ -15,7 +15,11 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::ensure!(trials >= 1, "--trials must be at least 1");
         scenario.trials = trials;
     }
-    if let Some(k) = scenario.recorded_trial_beyond_count() {
+    // Only when the file sets the count: `--trials 2` for a quick look at a scenario that
+    // records trial 9 is a choice, not a slip.
+    if args.trials.is_none()
+        && let Some(k) = scenario.recorded_trial_beyond_count()
+    {
         orchestrator::console!(
             "warning: {}: record.trials lists trial {k}, beyond this run's trials 0..{}: it is \
              recorded only if the campaign is extended (`--resume --trials`)",
