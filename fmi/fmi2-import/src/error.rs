@@ -24,6 +24,23 @@ pub enum ImportError {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// A folder was given where the .fmu file goes.
+    #[error(
+        "{} is a folder, not an .fmu file: an FMU is one zip archive{}",
+        .path.display(),
+        if *.unpacked {
+            " (this folder holds an unpacked FMU's modelDescription.xml: give the .fmu it came \
+             from, or zip the folder's contents into one)"
+        } else {
+            ""
+        }
+    )]
+    Folder {
+        /// The folder.
+        path: PathBuf,
+        /// Whether it holds a modelDescription.xml.
+        unpacked: bool,
+    },
     /// The file is not a zip archive (or a damaged one).
     #[error("{} is not a zip archive ({detail})", .path.display())]
     NotZip {

@@ -47,6 +47,10 @@ impl Fmu {
     /// and resolves all 34 FMI 2.0 co-simulation functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
         let path = path.as_ref().to_path_buf();
+        if path.is_dir() {
+            let unpacked = path.join("modelDescription.xml").is_file();
+            return Err(ImportError::Folder { path, unpacked });
+        }
         let file = File::open(&path).map_err(|source| match source.kind() {
             std::io::ErrorKind::NotFound => ImportError::NotFound { path: path.clone() },
             _ => ImportError::Io {

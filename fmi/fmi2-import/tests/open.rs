@@ -47,6 +47,45 @@ fn not_a_zip() {
     );
 }
 
+/// A folder, unpacked FMU or not, is named as a folder rather than as a damaged archive.
+#[test]
+fn a_folder_is_named_as_one() {
+    let dir = temp();
+    let plain = dir.path().join("Plain.fmu");
+    std::fs::create_dir(&plain).unwrap();
+    let err = open_err(&plain);
+    assert!(
+        matches!(
+            err,
+            ImportError::Folder {
+                unpacked: false,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{} is a folder, not an .fmu file: an FMU is one zip archive",
+            plain.display()
+        )
+    );
+    let unpacked = dir.path().join("Unpacked");
+    std::fs::create_dir(&unpacked).unwrap();
+    std::fs::write(
+        unpacked.join("modelDescription.xml"),
+        "<fmiModelDescription/>",
+    )
+    .unwrap();
+    let err = open_err(&unpacked);
+    assert!(
+        err.to_string()
+            .contains("holds an unpacked FMU's modelDescription.xml"),
+        "{err}"
+    );
+}
+
 #[test]
 fn zip_without_model_description() {
     let dir = temp();
