@@ -437,10 +437,46 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
         .span()
         .and_then(|span| text.get(span))
         .is_some_and(|value| value.trim().parse::<toml::value::Datetime>().is_ok());
-    if is_datetime {
+    let mut message = if is_datetime {
         message.replacen("invalid type: map", "invalid type: a date or time", 1)
     } else {
         message.to_string()
+    };
+    // `path = "C:\Users\me\X.fmu"`: TOML reads `\U` as the start of an escape.
+    let line_has_backslash = e.span().is_some_and(|span| {
+        let start = text[..span.start.min(text.len())]
+            .rfind('\n')
+            .map_or(0, |i| i + 1);
+        text[start..]
+            .lines()
+            .next()
+            .is_some_and(|l| l.contains('\\'))
+    });
+    if line_has_backslash && (message.contains("escape") || message.contains("unicode")) {
+        message.push_str(BACKSLASH_HINT);
+    }
+    message
+}
+
+/// Why a backslash in a scenario's or sweep file's path goes wrong, and what to write instead.
+const BACKSLASH_HINT: &str = " (in a \"…\" string a backslash starts an escape: write a \
+     Windows path with `/`, or between single quotes: 'C:\\fmus\\X.fmu')";
+
+/// What may explain that a path `written` in a scenario or sweep file, `path` once joined to
+/// the file's folder, cannot be opened: written as for a shell, or with backslashes that TOML
+/// read as escapes. Empty when neither applies, or when the path exists.
+pub(crate) fn path_hint(written: &str, path: &Path) -> &'static str {
+    if path.exists() {
+        ""
+    } else if written.contains(['\u{8}', '\t', '\n', '\u{c}', '\r']) {
+        " (the path holds a control character: `\\b`, `\\t`, `\\n`, `\\f` or `\\r` in a \"…\" \
+         string is an escape, not a backslash and a letter; write a Windows path with `/`, or \
+         between single quotes)"
+    } else if written.starts_with('~') || written.contains(['$', '%']) {
+        " (a scenario's paths are taken as written, relative to its folder: `~` and \
+         environment variables are not expanded)"
+    } else {
+        ""
     }
 }
 
@@ -650,16 +686,7 @@ impl Scenario {
                 match describe(&path) {
                     Ok(md) => Ok((path, md)),
                     Err(e) => {
-                        // A shell would have expanded these; TOML does not.
-                        let written = f.path.get_ref();
-                        let unexpanded = !path.exists()
-                            && (written.starts_with('~') || written.contains(['$', '%']));
-                        let hint = if unexpanded {
-                            " (a scenario's paths are taken as written, relative to its folder: \
-                             `~` and environment variables are not expanded)"
-                        } else {
-                            ""
-                        };
+                        let hint = path_hint(f.path.get_ref(), &path);
                         cx.err(f.path.span(), format!("FMU {name:?}: {e}{hint}"))
                     }
                 }

@@ -126,6 +126,26 @@ fn missing_fmu_file() {
     let scenario = scenario_for(dir.path(), "plain", &fmu);
     let failure = run_fails(&scenario, &dir.path().join("out"));
     assert!(!failure.stderr.contains(hint), "{}", failure.stderr);
+    assert!(!failure.stderr.contains("escape"), "{}", failure.stderr);
+
+    // A Windows path between double quotes: `\U` is refused as an escape at the path's
+    // line, and `\f`, `\n` are read as control characters, so the file is not found.
+    let windows = |stem: &str, path: &str| {
+        let file = dir.path().join(format!("{stem}.toml"));
+        let text = format!(
+            "step_size = 0.001\nstop_time = 0.01\n\n[[fmu]]\nname = \"unit\"\npath = \"{path}\"\n"
+        );
+        std::fs::write(&file, text).unwrap();
+        run_fails(&file, &dir.path().join("out"))
+    };
+    windows("users", r"C:\Users\me\X.fmu")
+        .says("users.toml:6:")
+        .says(
+            "a backslash starts an escape: write a Windows path with `/`, or between single quotes",
+        );
+    windows("formfeed", r"C:\fmus\new.fmu")
+        .says("no such file")
+        .says("the path holds a control character");
 }
 
 #[test]

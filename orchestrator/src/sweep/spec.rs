@@ -12,7 +12,9 @@ use rand_distr::{Distribution, Normal, Uniform};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scenario::{first_repeat, has_top_level_key, line_of, read_text, toml_message};
+use crate::scenario::{
+    first_repeat, has_top_level_key, line_of, path_hint, read_text, toml_message,
+};
 
 /// A sweep-file problem: file, line (when known) and message.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -210,7 +212,11 @@ impl SweepSpec {
         let base_text = read_text(&base).map_err(|e| {
             err(
                 raw.base.span(),
-                format!("cannot read the base scenario {}: {e}", base.display()),
+                format!(
+                    "cannot read the base scenario {}: {e}{}",
+                    base.display(),
+                    path_hint(raw.base.get_ref(), &base)
+                ),
             )
         })?;
         let base_doc: toml::Table = toml::from_str(&base_text).map_err(|e| {
@@ -996,6 +1002,16 @@ mod tests {
             .unwrap_err();
         assert_eq!(e.line, Some(1));
         assert!(e.message.contains("cannot read the base scenario"), "{e}");
+        assert!(!e.message.contains(" (the path"), "{e}");
+        // `\f` read as a form feed, and a path written as for a shell, are explained.
+        let e = spec("base = \"C:\\fmus\\b.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n")
+            .unwrap_err();
+        assert!(e.message.contains("holds a control character"), "{e}");
+        let e = spec(
+            "base = \"~/b.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n",
+        )
+        .unwrap_err();
+        assert!(e.message.contains("not expanded"), "{e}");
         let e = spec("base = \"base.toml\"\ncombine = \"zip\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n\
                       [[axis]]\nparameters = [\"plant.gravity\"]\nvalues = [1.0, 2.0]\n")
             .unwrap_err();
