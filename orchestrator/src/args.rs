@@ -234,7 +234,8 @@ pub struct SweepArgs {
     #[arg(long, value_parser = parse_jobs)]
     pub jobs: Option<usize>,
     /// Run only shard K of N (cases i with i mod N = K), e.g. `--shard 3/8` or
-    /// `--shard $SLURM_ARRAY_TASK_ID/8`; combine the shard folders with `sweep merge`.
+    /// `--shard $SLURM_ARRAY_TASK_ID/8`; combine the shard folders with `sweep merge`. A shard's
+    /// folder is resumed with the same --shard.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
     /// Continue a sweep in --out: finished cases are kept, unfinished ones resumed.
