@@ -443,14 +443,19 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
         message.to_string()
     };
     // `path = "C:\Users\me\X.fmu"`: TOML reads `\U` as the start of an escape.
+    // Bytes, not `str` slices: the span's start need not fall on a character boundary.
     let line_has_backslash = e.span().is_some_and(|span| {
-        let start = text[..span.start.min(text.len())]
-            .rfind('\n')
+        let bytes = text.as_bytes();
+        let at = span.start.min(bytes.len());
+        let start = bytes[..at]
+            .iter()
+            .rposition(|&b| b == b'\n')
             .map_or(0, |i| i + 1);
-        text[start..]
-            .lines()
-            .next()
-            .is_some_and(|l| l.contains('\\'))
+        let end = bytes[at..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(bytes.len(), |i| at + i);
+        bytes[start..end].contains(&b'\\')
     });
     if line_has_backslash && (message.contains("escape") || message.contains("unicode")) {
         message.push_str(BACKSLASH_HINT);
