@@ -478,7 +478,7 @@ pub(crate) fn path_hint(written: &str, path: &Path) -> &'static str {
          string is an escape, not a backslash and a letter; write a Windows path with `/`, or \
          between single quotes)"
     } else if written.starts_with('~') || written.contains(['$', '%']) {
-        " (a scenario's paths are taken as written, relative to its folder: `~` and \
+        " (the file's paths are taken as written, relative to its folder: `~` and \
          environment variables are not expanded)"
     } else {
         ""
