@@ -727,6 +727,29 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
         .arg(&out)
         .fails(&["sweep.toml:4: unknown field `axis`", "this is a sweep file"]);
     assert!(!out.exists(), "a refused file wrote {}", out.display());
+    // A base whose FMU path was written as for a shell says that it is taken as written.
+    let shell = tmp.path().join("shell");
+    fs::create_dir(&shell).unwrap();
+    let base_text = fs::read_to_string(&base).unwrap();
+    let plant = format!("{:?}", built_fmu("CkcmPlant").to_str().unwrap());
+    assert!(base_text.contains(&plant));
+    fs::write(
+        shell.join("base.toml"),
+        base_text.replace(&plant, "\"~/fmus/CkcmPlant.fmu\""),
+    )
+    .unwrap();
+    fs::write(shell.join("sweep.toml"), &text).unwrap();
+    orchestrator()
+        .arg("sweep")
+        .arg(shell.join("sweep.toml"))
+        .arg("--out")
+        .arg(&out)
+        .fails(&[
+            "base.toml: FMU",
+            "CkcmPlant.fmu: no such file",
+            "`~` and environment variables are not expanded",
+        ]);
+    assert!(!out.exists(), "a refused sweep wrote {}", out.display());
     // Shards of two different sweeps, and a missing shard, do not merge.
     let other = tmp.path().join("other.toml");
     fs::write(&other, text.replace("seed = 3", "seed = 4")).unwrap();

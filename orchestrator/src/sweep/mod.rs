@@ -35,7 +35,7 @@ use crate::campaign::{
     scenario_digest,
 };
 use crate::output::{OutputError, create_folder, write_atomic};
-use crate::scenario::{Scenario, toml_message_at};
+use crate::scenario::{Scenario, path_hint, toml_message_at};
 
 /// A sweep failure; a failing case is not one (it is recorded as failed and the sweep goes on).
 #[derive(Debug, thiserror::Error)]
@@ -141,7 +141,12 @@ impl BaseFmus {
             let abs = fs::canonicalize(&joined).map_err(|e| SweepError::Fmu {
                 file: spec.base.clone(),
                 fmu: joined.clone(),
-                message: e.to_string(),
+                message: match e.kind() {
+                    std::io::ErrorKind::NotFound => {
+                        format!("no such file{}", path_hint(path, &joined))
+                    }
+                    _ => e.to_string(),
+                },
             })?;
             // Each case's scenario is TOML, which is UTF-8: it could not name this file.
             if abs.to_str().is_none() {
