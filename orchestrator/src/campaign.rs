@@ -1158,9 +1158,6 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         }
     }
 
-    /// The λ-norm weights time since the start of the trial, so the same errors give the same
-    /// metrics whatever the scenario's start time; the path error is computed when positions
-    /// were recorded (1 mm off the line here).
     /// A recording's file name gives back its trial and format; other names give nothing.
     #[test]
     fn trial_of_file_inverts_trial_file() {
@@ -1181,6 +1178,9 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         }
     }
 
+    /// The λ-norm weights time since the start of the trial, so the same errors give the same
+    /// metrics whatever the scenario's start time; the path error is computed when positions
+    /// were recorded (1 mm off the line here).
     #[test]
     fn metrics_are_timed_from_the_trial_start_and_include_the_path() {
         let at_zero = TrialSummary::compute(3, &scenario(0.0), &signals(0.0));

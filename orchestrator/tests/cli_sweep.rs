@@ -486,14 +486,11 @@ fn an_fmu_replaced_during_a_sweep_stops_it() {
     }
 }
 
-/// A resumed sweep keeps its finished cases, so it refuses to go on once the FMUs or the
-/// base scenario changed under them (as `run --resume` refuses a campaign), and goes on once
-/// they are restored. Before this check, the resumed cases ran with the new FMUs beside
-/// cases of the old ones.
 /// One sweep per output folder at a time: a second sweep, or a resume, into a folder whose
 /// sweep is running is refused at once, naming the holder, and writes nothing. Before, it took
 /// up the cases the first had not reached and stopped part way, on the first case the first
-/// sweep held, while the first went on to find cases the second had started.
+/// sweep held, while the first went on to find cases the second had started. A merge into
+/// it is refused too: before, it merged beside the running sweep.
 #[test]
 fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
     let tmp = tempfile::tempdir().unwrap();
@@ -502,6 +499,12 @@ fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
     // The running sweep's lock, held here as a sweep process holds it.
     fs::create_dir(&out).unwrap();
     let held = orchestrator::campaign::DirLock::acquire(&out).unwrap();
+    let names = || -> Vec<_> {
+        fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect()
+    };
     for resume in [false, true] {
         let mut cmd = orchestrator();
         cmd.arg("sweep").arg(&sweep).arg("--out").arg(&out);
@@ -512,11 +515,7 @@ fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
             &format!("{} is in use by another run", out.display()),
             &format!("pid {}", std::process::id()),
         ]);
-        let names: Vec<_> = fs::read_dir(&out)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names, [".lock"], "a refused sweep wrote into the folder");
+        assert_eq!(names(), [".lock"], "a refused sweep wrote into the folder");
     }
     // A merge into it too: two writers would interleave their files.
     let shards = [0, 1].map(|k| shard_of_two(&sweep, k, tmp.path(), &format!("s{k}")));
@@ -527,11 +526,7 @@ fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
         .arg("--out")
         .arg(&out)
         .fails(&[&format!("{} is in use by another run", out.display())]);
-    let names: Vec<_> = fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(names, [".lock"], "a refused merge wrote into the folder");
+    assert_eq!(names(), [".lock"], "a refused merge wrote into the folder");
     drop(held);
     // A lock file left by a killed sweep is no file of the sweep's: a new one starts.
     fs::write(out.join(".lock"), "pid = 1\nhost = \"gone\"\nsince = 0\n").unwrap();
@@ -543,6 +538,10 @@ fn a_sweep_or_merge_into_a_folder_in_use_is_refused_at_once() {
     );
 }
 
+/// A resumed sweep keeps its finished cases, so it refuses to go on once the FMUs or the
+/// base scenario changed under them (as `run --resume` refuses a campaign), and goes on once
+/// they are restored. Before this check, the resumed cases ran with the new FMUs beside
+/// cases of the old ones.
 #[test]
 fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     let tmp = tempfile::tempdir().unwrap();
