@@ -443,19 +443,10 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
         message.to_string()
     };
     // `path = "C:\Users\me\X.fmu"`: TOML reads `\U` as the start of an escape.
-    // Bytes, not `str` slices: the span's start need not fall on a character boundary.
     let line_has_backslash = e.span().is_some_and(|span| {
-        let bytes = text.as_bytes();
-        let at = span.start.min(bytes.len());
-        let start = bytes[..at]
-            .iter()
-            .rposition(|&b| b == b'\n')
-            .map_or(0, |i| i + 1);
-        let end = bytes[at..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(bytes.len(), |i| at + i);
-        bytes[start..end].contains(&b'\\')
+        text.lines()
+            .nth(line_of(text, span.start) - 1)
+            .is_some_and(|l| l.contains('\\'))
     });
     if line_has_backslash && (message.contains("escape") || message.contains("unicode")) {
         message.push_str(BACKSLASH_HINT);

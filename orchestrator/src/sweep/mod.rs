@@ -79,7 +79,7 @@ pub enum SweepError {
     Output(#[from] OutputError),
     #[error("cannot merge: {0}")]
     Merge(String),
-    /// The output folder is another sweep's, running now.
+    /// The output folder is held by another sweep or merge, running now.
     #[error(transparent)]
     Locked(Box<CampaignError>),
 }
@@ -471,16 +471,13 @@ fn check_begun_as(
     let Ok(entries) = fs::read_dir(out.join("cases")) else {
         return Ok(());
     };
-    let mut held: Vec<usize> = entries
+    let other = entries
         .filter_map(Result::ok)
-        .filter_map(|e| {
-            let name = e.file_name();
-            name.to_str()?.strip_prefix("case_")?.parse().ok()
-        })
-        .collect();
-    held.sort_unstable();
-    match held.iter().find(|i| mine.binary_search(i).is_err()) {
-        Some(&i) => Err(refuse(format!(
+        .filter_map(|e| e.file_name().to_str()?.strip_prefix("case_")?.parse().ok())
+        .filter(|i| mine.binary_search(i).is_err())
+        .min();
+    match other {
+        Some(i) => Err(refuse(format!(
             "case_{i:04}, which is not among this run's cases (begun as another shard, or \
              unsharded)"
         ))),

@@ -1002,7 +1002,8 @@ mod tests {
             .unwrap_err();
         assert_eq!(e.line, Some(1));
         assert!(e.message.contains("cannot read the base scenario"), "{e}");
-        assert!(!e.message.contains(" (the path"), "{e}");
+        // Neither hint for a plain missing path (both begin " (the ").
+        assert!(!e.message.contains(" (the "), "{e}");
         // `\f` read as a form feed, and a path written as for a shell, are explained.
         let e = spec("base = \"C:\\fmus\\b.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = [1.0]\n")
             .unwrap_err();
