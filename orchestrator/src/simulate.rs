@@ -290,14 +290,13 @@ impl Grid {
     fn new(start: f64, stop: f64, step: f64, can_vary_step: bool) -> Result<Grid> {
         let (start_s, stop_s, step_s) = (Shown(start), Shown(stop), Shown(step));
         ensure!(start.is_finite(), "start time {start_s} must be finite");
+        ensure!(stop.is_finite(), "stop time {stop_s} must be finite");
         ensure!(
-            stop.is_finite() && stop > start,
+            stop > start,
             "stop time {stop_s} s must be after the start time {start_s} s"
         );
-        ensure!(
-            step.is_finite() && step > 0.0,
-            "step size {step_s} s must be positive"
-        );
+        ensure!(step.is_finite(), "step size {step_s} must be finite");
+        ensure!(step > 0.0, "step size {step_s} s must be positive");
         let ratio = (stop - start) / step;
         ensure!(
             ratio <= MAX_STEPS as f64,
@@ -897,6 +896,14 @@ mod tests {
     fn grid_rejects_bad_times() {
         for (start, stop, step) in [(0.0, 0.0, 0.1), (1.0, 0.5, 0.1), (0.0, 1.0, 0.0)] {
             assert!(Grid::new(start, stop, step, true).is_err());
+        }
+        for (start, stop, step, says) in [
+            (0.0, f64::INFINITY, 0.1, "stop time inf must be finite"),
+            (0.0, 1.0, f64::NAN, "step size NaN must be finite"),
+            (0.0, 1.0, f64::INFINITY, "step size inf must be finite"),
+        ] {
+            let err = Grid::new(start, stop, step, true).unwrap_err().to_string();
+            assert_eq!(err, says);
         }
         let err = Grid::new(0.0, 1e3, 1e-9, true).unwrap_err().to_string();
         assert!(err.contains("--step-size"), "{err}");
