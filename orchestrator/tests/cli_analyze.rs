@@ -174,6 +174,15 @@ fn bad_settings_are_named_and_nothing_is_written() {
         // A negative number after an option is its value, not an unknown option.
         (&["--gain-scale", "-1"][..], "--gain-scale = -1"),
         (
+            &["--dwell", "-1"][..],
+            "--dwell = -1 s must be zero or positive",
+        ),
+        (
+            &["--dwell", "inf"][..],
+            "--dwell = inf s must be zero or positive",
+        ),
+        (&["--stride", "0"][..], "--stride = 0 s must be positive"),
+        (
             &["--lead", "-1"][..],
             "invalid value '-1' for '--lead <LEAD>'",
         ),

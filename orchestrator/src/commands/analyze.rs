@@ -282,10 +282,12 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
             ctrl_spec.name
         );
     }
-    for (name, x) in [("dwell", args.dwell), ("stride", args.stride)] {
-        if !(x.is_finite() && x >= 0.0) || (name == "stride" && x == 0.0) {
-            bail!("--{name} = {x} s must be positive");
-        }
+    // A dwell of 0 is the frozen worst case; a stride of 0 samples nothing.
+    if !(args.dwell.is_finite() && args.dwell >= 0.0) {
+        bail!("--dwell = {} s must be zero or positive", args.dwell);
+    }
+    if !(args.stride.is_finite() && args.stride > 0.0) {
+        bail!("--stride = {} s must be positive", args.stride);
     }
     if duration / args.stride > ckcm::convergence::MAX_POSES {
         bail!(
