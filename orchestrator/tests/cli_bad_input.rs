@@ -712,12 +712,28 @@ fn paper_names_its_bad_options_bad_fmus_and_a_folder_in_use() {
         &out,
     )
     .says("CkcmPlant.fmu holds the model \"HlcsController\", not \"CkcmPlant\"");
+    // A duration the controller's declared range refuses fails before any case runs: before,
+    // the three line cases ran first and the study stopped at the first circle case.
+    let fmu_dir = built_fmu("CkcmPlant").parent().unwrap().to_path_buf();
+    fails(
+        &[
+            "paper".as_ref(),
+            "--fmu-dir".as_ref(),
+            fmu_dir.as_os_str(),
+            "--circle-duration".as_ref(),
+            "100000".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("circle / PID: its scenario, generated from the paper options and the FMUs in --fmu-dir, is refused")
+    .says("\"duration\" = 100000 is above its declared max = 86400");
     // A study whose folder another study holds is refused at once, naming the holder, and
     // writes nothing: before, it ran the cases the first had not reached and stopped part
     // way, on the first one the first study held.
     std::fs::create_dir(&out).unwrap();
     let held = orchestrator::campaign::DirLock::acquire(&out).unwrap();
-    let fmu_dir = built_fmu("CkcmPlant").parent().unwrap().to_path_buf();
     for resume in [&[][..], &["--resume".as_ref()][..]] {
         let mut args: Vec<&std::ffi::OsStr> = vec![
             "paper".as_ref(),

@@ -18,7 +18,7 @@ pub mod report;
 pub mod robust;
 pub mod scenario;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
@@ -29,6 +29,7 @@ use fmi2_md::Shown;
 pub use self::cases::{CaseResult, Scheme, case_dir};
 use self::cases::{TRAJECTORIES, traj_slug};
 use self::figures::CaseData;
+use self::scenario::Case;
 pub use self::scenario::{recorded_trials, scenario_toml};
 use crate::campaign::{CampaignError, DirLock, trial_csv};
 use crate::output::{OutputError, read_recording_csv, write_table_csv};
@@ -131,6 +132,7 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
         )));
     }
     // Open both FMUs once up front: a missing or broken FMU fails before anything is written.
+    let mut described = Vec::new();
     for model in ["CkcmPlant", "HlcsController"] {
         let p = opts.fmu_dir.join(format!("{model}.fmu"));
         let fmu = Fmu::open(&p).map_err(|e| PaperError::Fmu(Box::new(e)))?;
@@ -143,14 +145,34 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
                 p.display()
             )));
         }
+        described.push((
+            std::path::absolute(&p).unwrap_or(p),
+            fmu.model_description().clone(),
+        ));
     }
-    // One study per folder at a time: a second one started while this one runs would take
-    // up the same cases and stop part way on the first it finds locked.
-    let _lock = DirLock::acquire(&opts.out_dir)?;
     let cases: Vec<(TrajectoryKind, Scheme)> = TRAJECTORIES
         .into_iter()
         .flat_map(|k| Scheme::ALL.map(|s| (k, s)))
         .collect();
+    // Every campaign's scenario checked before the first runs: an option the FMUs refuse
+    // (a duration above the controller's declared max) fails at once, not after the cases
+    // before it have run.
+    let describe = |path: &Path| {
+        described
+            .iter()
+            .find(|(p, _)| p == path)
+            .map(|(_, md)| md.clone())
+            .ok_or_else(|| format!("{} is not one of --fmu-dir's FMUs", path.display()))
+    };
+    for &(kind, scheme) in &cases {
+        Case::paper(opts, kind, scheme).check(describe)?;
+    }
+    for i in 0..robust::CASES.len() {
+        robust::case_of(opts, i).check(describe)?;
+    }
+    // One study per folder at a time: a second one started while this one runs would take
+    // up the same cases and stop part way on the first it finds locked.
+    let _lock = DirLock::acquire(&opts.out_dir)?;
     let data = run_parallel(opts, cases.len(), |i, show_progress| {
         let (kind, scheme) = cases[i];
         let r = scenario::run_case(opts, kind, scheme, show_progress)

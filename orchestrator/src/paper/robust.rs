@@ -16,7 +16,7 @@ use ckcm::TrajectoryKind;
 
 use super::cases::{TRAJECTORIES, traj_from_slug, traj_slug};
 use super::claims::{csv_error, number, read_rows};
-use super::scenario::{CaseSpec, render, run_scenario};
+use super::scenario::{Case, CaseSpec, render, run_scenario};
 use super::{PaperError, PaperOptions};
 use crate::campaign::{CampaignError, TrialSummary, read_summary};
 use crate::output::plots::{Line, Panel, Stroke, colour, panels};
@@ -136,6 +136,20 @@ pub fn spec(opts: &PaperOptions, c: &RobustCase) -> CaseSpec {
     }
 }
 
+/// Case `i` of [`CASES`] as it runs.
+pub(super) fn case_of(opts: &PaperOptions, i: usize) -> Case {
+    let c = &CASES[i];
+    Case {
+        dir: case_dir(&opts.out_dir, c),
+        text: render(opts, &spec(opts, c)),
+        what: format!(
+            "beyond the paper: {} / {}",
+            traj_slug(c.trajectory),
+            c.label
+        ),
+    }
+}
+
 /// Runs case `i` of [`CASES`]. The paper's update can drive the platform into the base
 /// plane or a stroke end; the plant then refuses the step and the case ends there, as
 /// `outcome.toml` (status and the plant's message) in its folder records, with the summaries
@@ -145,15 +159,9 @@ pub(super) fn run_case(
     i: usize,
     show_progress: bool,
 ) -> Result<Vec<TrialSummary>, PaperError> {
-    let c = &CASES[i];
-    let dir = case_dir(&opts.out_dir, c);
-    let text = render(opts, &spec(opts, c));
-    let what = format!(
-        "beyond the paper: {} / {}",
-        traj_slug(c.trajectory),
-        c.label
-    );
-    let (summaries, outcome) = match run_scenario(opts, &dir, &text, &what, show_progress) {
+    let case = case_of(opts, i);
+    let dir = &case.dir;
+    let (summaries, outcome) = match run_scenario(opts, &case, show_progress) {
         Ok(s) => (s, "status = \"completed\"\n".to_owned()),
         Err(PaperError::Campaign(CampaignError::Master(e))) => {
             let summary = dir.join("summary.csv");

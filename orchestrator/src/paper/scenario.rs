@@ -4,11 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use ckcm::TrajectoryKind;
+use fmi2_md::ModelDescription;
 
 use super::cases::{CaseResult, Scheme, case_dir, traj_slug};
 use super::{PaperError, PaperOptions};
 use crate::campaign::{CampaignOptions, TrialSummary, run_campaign};
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ScenarioError};
 
 /// Trials whose full time histories are recorded. The learning schemes record every trial
 /// (the figures show each trial's envelope, spectrum, forces and learned input, and the
@@ -169,6 +170,41 @@ trajectory = {{ kind = "{traj}", duration = {duration:?}, home_height = 0.5 }}
     )
 }
 
+/// A campaign of the study as it runs: its folder, scenario text and name on the console.
+pub(super) struct Case {
+    pub dir: PathBuf,
+    pub text: String,
+    pub what: String,
+}
+
+impl Case {
+    /// One of the paper's six campaigns.
+    pub fn paper(opts: &PaperOptions, kind: TrajectoryKind, scheme: Scheme) -> Case {
+        Case {
+            dir: case_dir(&opts.out_dir, kind, scheme),
+            text: scenario_toml(opts, kind, scheme),
+            what: format!("{} / {}", traj_slug(kind), scheme.label()),
+        }
+    }
+
+    /// Validates the scenario against the FMUs' model descriptions, running nothing.
+    pub fn check(
+        &self,
+        describe: impl FnMut(&Path) -> Result<ModelDescription, String>,
+    ) -> Result<(), PaperError> {
+        Scenario::parse(&self.text, &self.dir.join("scenario.toml"), describe)
+            .map(drop)
+            .map_err(|e| self.refused(e))
+    }
+
+    fn refused(&self, e: ScenarioError) -> PaperError {
+        PaperError::Scenario {
+            case: self.what.clone(),
+            problems: e.messages(),
+        }
+    }
+}
+
 /// One of the paper's six campaigns.
 pub(super) fn run_case(
     opts: &PaperOptions,
@@ -176,10 +212,9 @@ pub(super) fn run_case(
     scheme: Scheme,
     show_progress: bool,
 ) -> Result<CaseResult, PaperError> {
-    let dir = case_dir(&opts.out_dir, kind, scheme);
-    let text = scenario_toml(opts, kind, scheme);
-    let what = format!("{} / {}", traj_slug(kind), scheme.label());
-    let summaries = run_scenario(opts, &dir, &text, &what, show_progress)?;
+    let case = Case::paper(opts, kind, scheme);
+    let summaries = run_scenario(opts, &case, show_progress)?;
+    let dir = case.dir;
     Ok(CaseResult {
         trajectory: kind,
         scheme,
@@ -188,29 +223,23 @@ pub(super) fn run_case(
     })
 }
 
-/// Runs the scenario `text` as a campaign in `dir` (its `scenario.toml` is written there).
+/// Runs a case as a campaign in its folder (its `scenario.toml` is written there).
 pub(super) fn run_scenario(
     opts: &PaperOptions,
-    dir: &Path,
-    text: &str,
-    what: &str,
+    case: &Case,
     show_progress: bool,
 ) -> Result<Vec<TrialSummary>, PaperError> {
-    let source: PathBuf = dir.join("scenario.toml");
-    let (scenario, fmus) =
-        Scenario::open_text(text, &source).map_err(|e| PaperError::Scenario {
-            case: what.to_owned(),
-            problems: e.messages(),
-        })?;
+    let (scenario, fmus) = Scenario::open_text(&case.text, &case.dir.join("scenario.toml"))
+        .map_err(|e| case.refused(e))?;
     if opts.progress && show_progress {
-        crate::console!("{what}");
+        crate::console!("{}", case.what);
     }
     Ok(run_campaign(
         &scenario,
-        text,
+        &case.text,
         fmus,
         &CampaignOptions {
-            out_dir: dir.to_owned(),
+            out_dir: case.dir.clone(),
             resume: opts.resume,
             fmu_logging: false,
             progress: opts.progress && show_progress,
