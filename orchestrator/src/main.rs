@@ -14,15 +14,19 @@ const EXIT_INTERRUPTED: i32 = 130;
 
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
+    let resume = match cli.command {
+        args::Command::Run(_) => "; `run --resume` continues the campaign",
+        args::Command::Sweep(_) => "; `sweep --resume` continues the sweep",
+        args::Command::Paper(_) => "; `paper --resume` continues the study",
+        _ => "",
+    };
     // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
     // exiting. Result files need nothing: each is written to a temporary file and renamed,
-    // and `run --resume` removes temporaries an interrupted run left behind. Without a
-    // handler (if installing it fails) the next start reaps the folders instead.
-    let _ = ctrlc::set_handler(|| {
+    // and `--resume` removes temporaries an interrupted run left behind. Without a handler
+    // (if installing it fails) the next start reaps the folders instead.
+    let _ = ctrlc::set_handler(move || {
         let removed = fmi2_import::remove_extraction_dirs();
-        orchestrator::console!(
-            "interrupted: removed {removed} FMU extraction folder(s); `run --resume` continues a campaign, `sweep --resume` a sweep"
-        );
+        orchestrator::console!("interrupted: removed {removed} FMU extraction folder(s){resume}");
         std::process::exit(EXIT_INTERRUPTED);
     });
     let result = match cli.command {

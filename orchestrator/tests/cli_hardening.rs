@@ -264,7 +264,8 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
         let err = String::from_utf8_lossy(&output.stderr);
         assert!(
             err.contains(&format!(
-                "interrupted: removed {copies} FMU extraction folder"
+                "interrupted: removed {copies} FMU extraction folder(s); \
+                 `run --resume` continues the campaign\n"
             )),
             "{err}"
         );
@@ -274,6 +275,37 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
             extraction_dirs(&temp)
         );
     }
+
+    // A study's interruption points to `paper --resume`, not to the other commands'.
+    let study = tmp.path().join("study");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["paper", "--jobs", "1", "--trials", "1000", "--fmu-dir"])
+        .arg(common::built_fmu("CkcmPlant").parent().unwrap())
+        .arg("--out")
+        .arg(&study)
+        .env("TMPDIR", &temp)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !study.join("line/pid/progress.toml").exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(
+        Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(130));
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        err.contains("FMU extraction folder(s); `paper --resume` continues the study\n"),
+        "{err}"
+    );
+    assert!(extraction_dirs(&temp).is_empty());
 
     // SIGKILL leaves the folder; the next start reaps it (its pid is dead), and leaves
     // folders of running processes alone.
