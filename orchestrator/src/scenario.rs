@@ -7,6 +7,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use ckcm::TrajectoryKind;
 use ckcm::learning::{LowPass, UpdateSettings};
 use fmi2_import::Fmu;
 use fmi2_md::{Causality, VarType};
@@ -949,7 +950,11 @@ impl Scenario {
                 };
                 let trajectory = match &m.trajectory {
                     None => None,
-                    Some(t) => Some(parse_trajectory(&cx, t)?),
+                    Some(t) => {
+                        let parsed = parse_trajectory(&cx, t)?;
+                        check_tracked(&cx, t, &parsed, &fmus, &mds)?;
+                        Some(parsed)
+                    }
                 };
                 if pose.is_some() != trajectory.is_some() {
                     return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
@@ -1128,6 +1133,88 @@ fn parse_trajectory(
         kind,
         duration: r.duration,
         home_height: r.home_height,
+    })
+}
+
+/// `metrics.trajectory` must be the path a CKCM controller in the scenario tracks: the two
+/// are written apart, and a path error measured against another path looks plausible.
+fn check_tracked(
+    cx: &Ctx<'_>,
+    t: &Spanned<RawTrajectory>,
+    measured: &ckcm::Trajectory,
+    fmus: &[FmuSpec],
+    mds: &[ModelDescription],
+) -> Result<(), ScenarioError> {
+    let shown = |t: &ckcm::Trajectory| {
+        format!(
+            "{:?} of {} s at home height {} m",
+            t.kind,
+            Shown(t.duration),
+            Shown(t.home_height)
+        )
+        .to_lowercase()
+    };
+    for (spec, md) in fmus.iter().zip(mds) {
+        let Some(tracked) = tracked_trajectory(spec, md) else {
+            continue;
+        };
+        let same = tracked.kind == measured.kind
+            && tracked.home_height == measured.home_height
+            && (tracked.duration == measured.duration || tracked.kind == TrajectoryKind::Hold);
+        if !same {
+            return cx.err(
+                t.span(),
+                format!(
+                    "metrics.trajectory is a {}, but FMU {:?} tracks a {}: the path error \
+                     would measure the platform against another path; make them equal, or \
+                     leave out metrics.pose and metrics.trajectory",
+                    shown(measured),
+                    spec.name,
+                    shown(&tracked)
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The reference an HlcsController FMU tracks in every trial, from its `trajectory`,
+/// `duration` and `model.home_height` as set (or declared); `None` for another model, an
+/// external reference, or one that changes from trial to trial.
+fn tracked_trajectory(spec: &FmuSpec, md: &ModelDescription) -> Option<ckcm::Trajectory> {
+    if md.model_name != "HlcsController" {
+        return None;
+    }
+    let value = |name: &str| -> Option<Value> {
+        match spec.settings.iter().rfind(|s| s.name == name) {
+            Some(s) if s.per_trial.is_some() => None,
+            Some(s) => Some(s.value.clone()),
+            None => match &md.variable_by_name(name)?.kind {
+                VariableKind::Real { start, .. } => start.map(Value::Real),
+                VariableKind::Enumeration { start, .. } => start.map(Value::Integer),
+                _ => None,
+            },
+        }
+    };
+    let real = |name: &str| match value(name)? {
+        Value::Real(x) => Some(x),
+        _ => None,
+    };
+    let Value::Integer(item) = value("trajectory")? else {
+        return None;
+    };
+    let kind = [
+        ("hold", TrajectoryKind::Hold),
+        ("line", TrajectoryKind::Line),
+        ("circle", TrajectoryKind::Circle),
+    ]
+    .into_iter()
+    .find(|(name, _)| md.enumeration_item("trajectory", name) == Some(item))?
+    .1;
+    Some(ckcm::Trajectory {
+        kind,
+        duration: real("duration")?,
+        home_height: real("model.home_height")?,
     })
 }
 

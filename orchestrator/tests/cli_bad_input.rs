@@ -668,6 +668,98 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
         .success();
 }
 
+/// `metrics.trajectory` is written apart from the controller's reference, and a path error
+/// against another path looks plausible (355 mm for a line measured as a circle, where the
+/// true one is 0.65 mm): a CKCM controller's fixed reference must be the one measured.
+#[test]
+fn a_path_error_against_another_path_than_the_controllers_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (controller, plant) = (built_fmu("HlcsController"), built_fmu("CkcmPlant"));
+    let write = |stem: &str, parameters: &str, measured: &str| {
+        let path = dir.path().join(format!("{stem}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "step_size = 0.001\ntrials = 2\nstop_time = 0.01\n\n\
+                 [[fmu]]\nname = \"controller\"\npath = {:?}\n[fmu.parameters]\n{parameters}\n\n\
+                 [[fmu]]\nname = \"plant\"\npath = {:?}\n\n\
+                 [metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
+                 pose = \"plant.pose\"\ntrajectory = {{ {measured} }}\n",
+                controller.to_str().unwrap(),
+                plant.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let out = dir.path().join("out");
+    for (stem, parameters, measured, says) in [
+        (
+            "circle",
+            "",
+            "kind = \"circle\", duration = 15.0",
+            "metrics.trajectory is a circle of 15 s at home height 0.5 m, but FMU \"controller\" \
+             tracks a line of 15 s at home height 0.5 m: the path error would measure the \
+             platform against another path; make them equal, or leave out metrics.pose and \
+             metrics.trajectory",
+        ),
+        (
+            "duration",
+            "trajectory = \"circle\"\nduration = 5.0",
+            "kind = \"circle\", duration = 6.0",
+            "is a circle of 6 s at home height 0.5 m, but FMU \"controller\" tracks a circle of 5 s",
+        ),
+        (
+            "home",
+            "\"model.home_height\" = 0.45",
+            "kind = \"line\", duration = 15.0",
+            "tracks a line of 15 s at home height 0.45 m",
+        ),
+    ] {
+        let scenario = write(stem, parameters, measured);
+        let text = std::fs::read_to_string(&scenario).unwrap();
+        let line = 1 + text
+            .lines()
+            .position(|l| l.starts_with("trajectory = {"))
+            .unwrap();
+        run_fails(&scenario, &out)
+            .says(&format!("{}:{line}: ", scenario.display()))
+            .says(says);
+    }
+    // The same path, a held pose of any duration, an external reference, or one that
+    // changes from trial to trial (which the check cannot follow) run.
+    for (stem, parameters, measured) in [
+        (
+            "same",
+            "trajectory = \"circle\"\nduration = 5.0\n\"model.home_height\" = 0.45",
+            "kind = \"circle\", duration = 5.0, home_height = 0.45",
+        ),
+        (
+            "hold",
+            "trajectory = \"hold\"",
+            "kind = \"hold\", duration = 1.0",
+        ),
+        (
+            "external",
+            "trajectory = \"external\"",
+            "kind = \"circle\", duration = 5.0",
+        ),
+        (
+            "per_trial",
+            "duration = { base = 15.0, per_trial = 1.0 }",
+            "kind = \"line\", duration = 15.0",
+        ),
+    ] {
+        orchestrator()
+            .arg("run")
+            .arg(write(stem, parameters, measured))
+            .arg("--out")
+            .arg(dir.path().join(format!("{stem}_out")))
+            .assert()
+            .success();
+    }
+}
+
 #[test]
 fn paper_names_its_bad_options_bad_fmus_and_a_folder_in_use() {
     let dir = tempfile::tempdir().unwrap();
