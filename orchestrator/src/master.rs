@@ -14,7 +14,7 @@ use fmi2_import::{Fmu, ImportError, Instance};
 use indicatif::ProgressBar;
 
 use crate::output::{RecordedRows, seconds};
-use crate::scenario::{Port, Scenario};
+use crate::scenario::{Port, Scenario, describe_update};
 use crate::variables::set_value;
 
 /// A failure while running, naming the trial, the time and the call.
@@ -63,6 +63,20 @@ pub enum MasterError {
     Update {
         channel: String,
         source: ckcm::learning::UpdateError,
+    },
+    #[error(
+        "trial {trial}: the update of memory channel {channel:?} ([memory.update]: {settings}) \
+         made the next trial's memory not finite: {variable} at t = {} s is {value}; no trial \
+         can learn from it, so the campaign stops with the trials before this one",
+        seconds(*time)
+    )]
+    UpdateNotFinite {
+        trial: usize,
+        channel: String,
+        settings: String,
+        variable: String,
+        time: f64,
+        value: f64,
     },
     #[error("trial {trial} stopped: the trial before it, whose memory it reads, did not finish")]
     Cancelled { trial: usize },
@@ -315,12 +329,18 @@ struct Channel {
 
 impl Channel {
     /// End of a trial: the update stage turns the written m_k into u_{k+1}
-    /// (docs/model.md §9), which becomes the read buffer of the next trial.
-    fn end_trial(&mut self) {
+    /// (docs/model.md §9), which becomes the read buffer of the next trial. `Err(i)`: the
+    /// update made element `i` (sample i / width) not finite, and nothing is swapped. The
+    /// plain swap needs no check: its values passed the outputs' own.
+    fn end_trial(&mut self) -> Result<(), usize> {
         if let Some(u) = &mut self.update {
             u.apply(&self.read, &mut self.write);
+            if let Some(i) = self.write.iter().position(|x| !x.is_finite()) {
+                return Err(i);
+            }
         }
         std::mem::swap(&mut self.read, &mut self.write);
+        Ok(())
     }
 }
 
@@ -734,8 +754,18 @@ impl<'s> Master<'s> {
         }
         // A failed trial's recording keeps every step up to the failure.
         self.step_trial(trial, recording, signals, on_step, link)?;
-        for ch in &mut self.channels {
-            ch.end_trial();
+        for (ch, m) in self.channels.iter_mut().zip(&self.scenario.memory) {
+            ch.end_trial().map_err(|i| {
+                let u = ch.update.as_ref().map(MemoryUpdate::settings);
+                MasterError::UpdateNotFinite {
+                    trial,
+                    channel: m.link.to.reference.clone(),
+                    settings: u.map(describe_update).unwrap_or_default(),
+                    variable: m.link.to.names[i % ch.width].clone(),
+                    time: self.scenario.time(i / ch.width),
+                    value: ch.write[i],
+                }
+            })?;
         }
         Ok(())
     }

@@ -998,6 +998,24 @@ impl Scenario {
     }
 }
 
+/// A `[memory.update]` in words, for the analysis' summary and the master's errors.
+pub fn describe_update(u: &UpdateSettings) -> String {
+    let filter = match u.filter {
+        Some(q) => format!(
+            "Butterworth order {} cutoff {} Hz (zero phase)",
+            q.order,
+            Shown(q.cutoff_hz)
+        ),
+        None => "no filter".to_string(),
+    };
+    format!(
+        "{filter}, lead δ = {} samples, forgetting α = {}, gain g = {}",
+        u.lead,
+        Shown(u.forgetting),
+        Shown(u.gain)
+    )
+}
+
 /// Validates `[memory.update]` for trials of `steps` samples of `h` s.
 fn parse_update(
     cx: &Ctx<'_>,

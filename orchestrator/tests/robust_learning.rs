@@ -217,3 +217,37 @@ fn line_robust_reaches_a_micrometre_by_trial_5_and_stays() {
     );
     assert_no_rise_after_trial_3(&max_mm, "line");
 }
+
+/// An update whose gain overflows makes the next trial's memory NaN: the master stops at the
+/// end of that trial naming the channel, the settings and the first bad element. Before, the
+/// NaN memory was kept as the trial's, and the next trial failed in the controller's
+/// fmi2SetReal, naming neither the update nor the trial that made it.
+#[test]
+fn an_update_that_makes_the_memory_not_finite_stops_at_that_trial() {
+    let update = format!("{ROBUST}gain = 1e308\n");
+    let text = scenario_toml("circle", 0.2, &update, "", "");
+    let (scenario, fmus) = Scenario::open_text(&text, Path::new("robust.toml")).unwrap();
+    let mut master = Master::new(&scenario, fmus, false).unwrap();
+    let mut signals = master.new_signals();
+    let err = master.run_trial(0, None, &mut signals, |_| {}).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        matches!(
+            &err,
+            orchestrator::master::MasterError::UpdateNotFinite { trial: 0, variable, time, value, .. }
+                if variable == "controller.memory[1]" && *time == 0.0 && value.is_nan()
+        ),
+        "{message}"
+    );
+    assert!(
+        message.starts_with(
+            "trial 0: the update of memory channel \"controller.memory\" ([memory.update]: \
+             Butterworth order 4 cutoff 8 Hz (zero phase), lead δ = 25 samples, forgetting \
+             α = 1, gain g = 1e308) made the next trial's memory not finite: \
+             controller.memory[1] at t = 0 s is NaN"
+        ),
+        "{message}"
+    );
+    // The trial's own memory stays the one it read.
+    assert!(master.memory()[0].iter().all(|&u| u == 0.0));
+}

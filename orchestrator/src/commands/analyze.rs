@@ -14,7 +14,7 @@ use fmi2_import::Fmu;
 use fmi2_md::{ModelDescription, Shown, VariableKind};
 use orchestrator::output::convergence_plot::{ModeCurves, convergence_factor};
 use orchestrator::output::{write_atomic, write_table_csv};
-use orchestrator::scenario::{FmuSpec, Scenario, Value};
+use orchestrator::scenario::{FmuSpec, Scenario, Value, describe_update};
 
 use crate::args::AnalyzeArgs;
 
@@ -339,20 +339,6 @@ fn write_csv(path: &Path, a: &Analysis) -> Result<()> {
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
     write_table_csv(path, &header, &rows)?;
     Ok(())
-}
-
-fn describe_update(u: &UpdateSettings) -> String {
-    let filter = match u.filter {
-        Some(q) => format!(
-            "Butterworth order {} cutoff {} Hz (zero phase)",
-            q.order, q.cutoff_hz
-        ),
-        None => "no filter".to_string(),
-    };
-    format!(
-        "{filter}, lead δ = {} samples, forgetting α = {}, gain g = {}",
-        u.lead, u.forgetting, u.gain
-    )
 }
 
 fn cutoff_text(c: Option<f64>, h: f64) -> String {
