@@ -332,6 +332,58 @@ fn as_run(scenario: &Scenario, text: &str) -> Result<String, CampaignError> {
     )?)
 }
 
+/// Why a folder's campaign is not this one, for the refused resume: the first line where
+/// its saved `scenario.toml` and this scenario differ (FMU paths and trial counts aside,
+/// as the fingerprint leaves them out), or else its FMU files.
+fn what_differs(dir: &Path, scenario: &Scenario, text: &str) -> String {
+    const GENERIC: &str = "it holds a campaign of a different scenario or different FMUs";
+    let saved_file = dir.join("scenario.toml");
+    let Ok(saved) = fs::read_to_string(&saved_file) else {
+        return GENERIC.into();
+    };
+    let placeholders = vec![""; scenario.fmus.len()];
+    let (Ok(theirs), Ok(ours)) = (
+        as_run_text(&saved, &saved_file, &placeholders, 0),
+        as_run_text(text, &scenario.source, &placeholders, 0),
+    ) else {
+        return format!("{GENERIC} (its scenario.toml has another number of [[fmu]] entries)");
+    };
+    if theirs == ours {
+        return "it holds a campaign of this scenario run with other FMU files (rebuilt or \
+                replaced since it began)"
+            .into();
+    }
+    // Lines with text, numbered as in the file: a blank line added or removed above the edit
+    // does not hide it.
+    let text_lines = |t: &str| -> Vec<(usize, String)> {
+        t.lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty())
+            .map(|(i, l)| (i + 1, l.trim().to_owned()))
+            .collect()
+    };
+    let (theirs, ours) = (text_lines(&theirs), text_lines(&ours));
+    let n = theirs
+        .iter()
+        .zip(&ours)
+        .take_while(|(a, b)| a.1 == b.1)
+        .count();
+    let line = match theirs.get(n) {
+        Some((i, l)) => format!("line {i} of its scenario.toml reads `{l}`"),
+        None if n < ours.len() => "its scenario.toml ends".to_owned(),
+        None => {
+            return "it holds a campaign of a different scenario: its scenario.toml differs \
+                    from this one in blank lines or spaces only"
+                .into();
+        }
+    };
+    let ours = match ours.get(n) {
+        Some((_, l)) => format!("`{l}`"),
+        None => "nothing more".to_owned(),
+    };
+    format!("it holds a campaign of a different scenario: {line}, where this scenario has {ours}")
+}
+
 #[derive(Debug, serde::Deserialize)]
 struct Progress {
     completed: usize,
@@ -804,9 +856,7 @@ pub fn run_campaign(
         };
         let p = read_progress(&progress_file).map_err(resume_err)?;
         if !fps.matches(&p) {
-            return Err(resume_err(
-                "it holds a campaign of a different scenario or different FMUs".into(),
-            ));
+            return Err(resume_err(what_differs(dir, scenario, scenario_text)));
         }
         let rows = read_summary(&dir.join("summary.csv")).map_err(resume_err)?;
         if rows.len() < p.completed {

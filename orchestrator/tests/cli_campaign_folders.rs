@@ -293,11 +293,30 @@ fn resume_refuses_a_folder_of_a_different_scenario() {
     let o = run(&changed, &out, &["--resume"]);
     assert!(!o.status.success());
     let err = stderr(&o);
-    assert!(err.contains("different scenario"), "{err}");
-    assert!(err.contains(&out.display().to_string()), "{err}");
+    // The first line that differs is named, blank lines aside.
+    assert!(
+        err.contains(&format!(
+            "cannot resume in {}: it holds a campaign of a different scenario: line 5 of its \
+             scenario.toml reads `[[fmu]]`, where this scenario has `start_time = 0.0`",
+            out.display()
+        )),
+        "{err}"
+    );
     assert_eq!(tree(&out), before, "a refused resume changed the folder");
 
+    // The same scenario with another FMU file (rebuilt): the FMU is named as the difference.
     let same = scenario(tmp.path(), "");
+    let fmu = tmp.path().join("DampedOscillator.fmu");
+    let bytes = std::fs::read(&fmu).unwrap();
+    std::fs::write(&fmu, [&bytes[..], b" "].concat()).unwrap();
+    let err = stderr(&run(&same, &out, &["--resume"]));
+    assert!(
+        err.contains("it holds a campaign of this scenario run with other FMU files"),
+        "{err}"
+    );
+    assert_eq!(tree(&out), before, "a refused resume changed the folder");
+    std::fs::write(&fmu, bytes).unwrap();
+
     let o = run(&same, &out, &["--resume"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }

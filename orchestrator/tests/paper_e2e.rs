@@ -333,6 +333,33 @@ fn paper_study_writes_every_file_and_learning_works() {
         &tree(serial.path()),
         "between --jobs 1 and parallel campaigns",
     );
+    // `--resume` with other options names the first line where a case's scenario differs,
+    // and that a study resumes with the options it began with; nothing changes.
+    let before = tree(serial.path());
+    let o = orchestrator()
+        .args(["paper", "--resume", "--trials", "6", "--line-duration", "4"])
+        .args([
+            "--circle-duration",
+            "4",
+            "--robust-trials",
+            "6",
+            "--fmu-dir",
+        ])
+        .arg(fmu_dir())
+        .arg("--out")
+        .arg(serial.path())
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(
+            "reads `trials = [0, 1, 2, 3, 4]`, where this scenario has `trials = [0, 1, 2, 3, 4, \
+             5]`; `paper --resume` continues a study with the options and FMUs it began with"
+        ),
+        "{err}"
+    );
+    assert_same_files(&before, &tree(serial.path()), "after a refused resume");
 }
 
 fn line_scenario(dir: &Path, trials: usize) -> PathBuf {
@@ -536,6 +563,7 @@ fn resume_refuses_a_different_scenario() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("different scenario"), "{err}");
+    assert!(err.contains("where this scenario has `psi = 0.0`"), "{err}");
 }
 
 /// FMUs in a folder whose name holds a quote and a backslash: the generated scenarios quote

@@ -8,7 +8,7 @@ use fmi2_md::ModelDescription;
 
 use super::cases::{CaseResult, Scheme, case_dir, traj_slug};
 use super::{PaperError, PaperOptions};
-use crate::campaign::{CampaignOptions, TrialSummary, run_campaign};
+use crate::campaign::{CampaignError, CampaignOptions, TrialSummary, run_campaign};
 use crate::scenario::{Scenario, ScenarioError};
 
 /// Trials whose full time histories are recorded. The learning schemes record every trial
@@ -250,5 +250,15 @@ pub(super) fn run_scenario(
             crash_at: None,
             lanes: 1,
         },
-    )?)
+    )
+    .map_err(|e| match e {
+        CampaignError::Resume { dir, message } if opts.resume => CampaignError::Resume {
+            dir,
+            message: format!(
+                "{message}; `paper --resume` continues a study with the options and FMUs it \
+                 began with (without --resume it starts anew)"
+            ),
+        },
+        e => e,
+    })?)
 }
