@@ -31,8 +31,9 @@ pub enum Command {
     Sweep(SweepArgs),
 }
 
-/// `run`.
+/// `run`. A negative number after an option is its value, refused with the option's name.
 #[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
 pub struct RunArgs {
     /// The scenario file (TOML).
     pub scenario: PathBuf,
@@ -218,9 +219,13 @@ fn order_help() -> String {
     )
 }
 
-/// `sweep`.
+/// `sweep`. A negative number after an option is its value, refused with the option's name.
 #[derive(Debug, Args)]
-#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    allow_negative_numbers = true
+)]
 pub struct SweepArgs {
     #[command(subcommand)]
     pub action: Option<SweepAction>,
@@ -236,7 +241,7 @@ pub struct SweepArgs {
     /// Run only shard K of N (cases i with i mod N = K), e.g. `--shard 3/8` or
     /// `--shard $SLURM_ARRAY_TASK_ID/8`; combine the shard folders with `sweep merge`. A shard's
     /// folder is resumed with the same --shard.
-    #[arg(long, value_name = "K/N")]
+    #[arg(long, value_name = "K/N", allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// Continue a sweep in --out: finished cases are kept, unfinished ones resumed.
     #[arg(long)]

@@ -504,7 +504,9 @@ fn paper_names_the_case_of_a_refused_generated_scenario() {
     assert!(!f.stderr.contains("scenario.toml"), "{}", f.stderr);
 }
 
-/// `--jobs 0` means the same to every subcommand: refused, before anything runs.
+/// `--jobs 0` means the same to every subcommand: refused, before anything runs. So does a
+/// negative count, which is refused as the option's value, not read as an unknown option
+/// with clap's tip to write `-- -1` (which would make it the scenario's path).
 #[test]
 fn jobs_zero_is_refused_by_run_sweep_and_paper() {
     let dir = tempfile::tempdir().unwrap();
@@ -514,16 +516,36 @@ fn jobs_zero_is_refused_by_run_sweep_and_paper() {
         &["sweep", "sweep.toml"][..],
         &["paper"][..],
     ] {
+        for jobs in ["0", "-1"] {
+            let mut all: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+            all.extend([
+                "--jobs".as_ref(),
+                jobs.as_ref(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ]);
+            fails(&all, &out)
+                .says(&format!("invalid value '{jobs}' for '--jobs"))
+                .says("must be a whole number of at least 1");
+        }
+    }
+    for (args, says) in [
+        (
+            &["run", "s.toml", "--trials", "-1"][..],
+            "invalid value '-1' for '--trials <TRIALS>'",
+        ),
+        (
+            &["run", "s.toml", "--memory-limit-mib", "-5"][..],
+            "invalid value '-5' for '--memory-limit-mib <MIB>'",
+        ),
+        (
+            &["sweep", "sweep.toml", "--shard", "-1/2"][..],
+            "--shard \"-1/2\": expected K/N",
+        ),
+    ] {
         let mut all: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
-        all.extend([
-            "--jobs".as_ref(),
-            "0".as_ref(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ]);
-        fails(&all, &out)
-            .says("invalid value '0' for '--jobs")
-            .says("must be a whole number of at least 1");
+        all.extend(["--out".as_ref(), out.as_os_str()]);
+        fails(&all, &out).says(says);
     }
 }
 
