@@ -220,6 +220,35 @@ fn extraction_dirs(temp: &Path) -> Vec<String> {
         .collect()
 }
 
+/// Starts `command` with its temporary folder in `temp`, waits until `ready` exists, runs
+/// `check`, sends SIG`signal`, and returns the exit code and what went to stderr.
+fn interrupt(
+    mut command: Command,
+    temp: &Path,
+    ready: &Path,
+    signal: &str,
+    check: impl FnOnce(),
+) -> (Option<i32>, String) {
+    let child = command
+        .env("TMPDIR", temp)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !ready.exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    check();
+    let status = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&output.stderr).into_owned();
+    (output.status.code(), err)
+}
+
 #[test]
 fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
     let tmp = tempfile::tempdir().unwrap();
@@ -239,29 +268,16 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
     // Two lanes unpack a second copy of the FMU; it goes too.
     for (signal, copies) in [("INT", 2), ("TERM", 1), ("HUP", 1)] {
         let out = tmp.path().join(format!("out-{signal}"));
-        let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .arg("run")
+        let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"));
+        run.arg("run")
             .arg(&s)
             .arg("--out")
             .arg(&out)
-            .arg(format!("--jobs={copies}"))
-            .env("TMPDIR", &temp)
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while !out.join("progress.toml").exists() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        assert_eq!(extraction_dirs(&temp).len(), copies, "the FMU is unpacked");
-        let status = Command::new("kill")
-            .args([&format!("-{signal}"), &child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let output = child.wait_with_output().unwrap();
-        assert_eq!(output.status.code(), Some(130), "SIG{signal}");
-        let err = String::from_utf8_lossy(&output.stderr);
+            .arg(format!("--jobs={copies}"));
+        let (code, err) = interrupt(run, &temp, &out.join("progress.toml"), signal, || {
+            assert_eq!(extraction_dirs(&temp).len(), copies, "the FMU is unpacked");
+        });
+        assert_eq!(code, Some(130), "SIG{signal}");
         assert!(
             err.contains(&format!(
                 "interrupted: removed {copies} FMU extraction folder(s); \
@@ -278,29 +294,15 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
 
     // A study's interruption points to `paper --resume`, not to the other commands'.
     let study = tmp.path().join("study");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+    let mut paper = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"));
+    paper
         .args(["paper", "--jobs", "1", "--trials", "1000", "--fmu-dir"])
         .arg(common::built_fmu("CkcmPlant").parent().unwrap())
         .arg("--out")
-        .arg(&study)
-        .env("TMPDIR", &temp)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !study.join("line/pid/progress.toml").exists() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    assert!(
-        Command::new("kill")
-            .args(["-TERM", &child.id().to_string()])
-            .status()
-            .unwrap()
-            .success()
-    );
-    let output = child.wait_with_output().unwrap();
-    assert_eq!(output.status.code(), Some(130));
-    let err = String::from_utf8_lossy(&output.stderr);
+        .arg(&study);
+    let ready = study.join("line/pid/progress.toml");
+    let (code, err) = interrupt(paper, &temp, &ready, "TERM", || {});
+    assert_eq!(code, Some(130));
     assert!(
         err.contains("FMU extraction folder(s); `paper --resume` continues the study\n"),
         "{err}"

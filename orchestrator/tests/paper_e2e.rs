@@ -194,25 +194,22 @@ fn max_errors(summary: &Path) -> Vec<f64> {
         .collect()
 }
 
+/// `paper` with 4 s paths and 6 robust trials into `out`, then `options`.
+fn short_study(out: &Path, options: &[&str]) -> Command {
+    let mut c = orchestrator();
+    c.args(["paper", "--line-duration", "4", "--circle-duration", "4"])
+        .args(["--robust-trials", "6", "--fmu-dir"])
+        .arg(fmu_dir())
+        .arg("--out")
+        .arg(out)
+        .args(options);
+    c
+}
+
 #[test]
 fn paper_study_writes_every_file_and_learning_works() {
     let out = tempfile::tempdir().unwrap();
-    let status = orchestrator()
-        .args([
-            "paper",
-            "--trials",
-            "5",
-            "--line-duration",
-            "4",
-            "--circle-duration",
-            "4",
-            "--robust-trials",
-            "6",
-            "--fmu-dir",
-        ])
-        .arg(fmu_dir())
-        .arg("--out")
-        .arg(out.path())
+    let status = short_study(out.path(), &["--trials", "5"])
         .status()
         .unwrap();
     assert!(status.success());
@@ -307,24 +304,7 @@ fn paper_study_writes_every_file_and_learning_works() {
     assert!(!report.contains("{{"), "unfilled placeholder in report.md");
     // Campaigns run in parallel by default; one at a time gives the very same files.
     let serial = tempfile::tempdir().unwrap();
-    let status = orchestrator()
-        .args([
-            "paper",
-            "--trials",
-            "5",
-            "--line-duration",
-            "4",
-            "--circle-duration",
-            "4",
-            "--robust-trials",
-            "6",
-            "--jobs",
-            "1",
-            "--fmu-dir",
-        ])
-        .arg(fmu_dir())
-        .arg("--out")
-        .arg(serial.path())
+    let status = short_study(serial.path(), &["--trials", "5", "--jobs", "1"])
         .status()
         .unwrap();
     assert!(status.success());
@@ -336,18 +316,7 @@ fn paper_study_writes_every_file_and_learning_works() {
     // `--resume` with other options names the first line where a case's scenario differs,
     // and that a study resumes with the options it began with; nothing changes.
     let before = tree(serial.path());
-    let o = orchestrator()
-        .args(["paper", "--resume", "--trials", "6", "--line-duration", "4"])
-        .args([
-            "--circle-duration",
-            "4",
-            "--robust-trials",
-            "6",
-            "--fmu-dir",
-        ])
-        .arg(fmu_dir())
-        .arg("--out")
-        .arg(serial.path())
+    let o = short_study(serial.path(), &["--resume", "--trials", "6"])
         .output()
         .unwrap();
     assert!(!o.status.success());
