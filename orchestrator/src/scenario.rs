@@ -949,15 +949,41 @@ impl Scenario {
                     }
                 };
                 let trajectory = match &m.trajectory {
-                    None => None,
                     Some(t) => {
                         let parsed = parse_trajectory(&cx, t)?;
                         check_tracked(&cx, t, &parsed, &fmus, &mds)?;
                         Some(parsed)
                     }
+                    // Without one, the path is the reference the CKCM controller tracks.
+                    None if pose.is_some() => {
+                        let tracked = fmus
+                            .iter()
+                            .zip(&mds)
+                            .filter_map(|(f, md)| tracked_trajectory(f, md));
+                        let mut distinct: Vec<ckcm::Trajectory> = Vec::new();
+                        for t in tracked {
+                            if !distinct.contains(&t) {
+                                distinct.push(t);
+                            }
+                        }
+                        match distinct[..] {
+                            [one] => Some(one),
+                            _ => return cx.err(
+                                spanned.span(),
+                                "metrics.pose needs metrics.trajectory, the path it is measured \
+                                 against (without it, the reference of the scenario's \
+                                 HlcsController FMU is taken, when there is one that tracks its \
+                                 own the same in every trial)",
+                            ),
+                        }
+                    }
+                    None => None,
                 };
-                if pose.is_some() != trajectory.is_some() {
-                    return cx.err(spanned.span(), "metrics.pose and metrics.trajectory go together (the path error needs both)");
+                if pose.is_none() && trajectory.is_some() {
+                    return cx.err(
+                        spanned.span(),
+                        "metrics.trajectory needs metrics.pose (the path error needs both)",
+                    );
                 }
                 Ok(Some(Metrics {
                     error,
@@ -1185,7 +1211,7 @@ fn check_tracked(
                 format!(
                     "metrics.trajectory is a {}, but FMU {:?} tracks a {}: the path error \
                      would measure the platform against another path; make them equal, or \
-                     leave out metrics.pose and metrics.trajectory",
+                     leave out metrics.trajectory to measure against the controller's",
                     shown(measured),
                     spec.name,
                     shown(&tracked)

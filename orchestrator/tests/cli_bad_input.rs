@@ -692,9 +692,10 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
 
 /// `metrics.trajectory` is written apart from the controller's reference, and a path error
 /// against another path looks plausible (355 mm for a line measured as a circle, where the
-/// true one is 0.65 mm): a CKCM controller's fixed reference must be the one measured.
+/// true one is 0.65 mm): a CKCM controller's fixed reference must be the one measured, and
+/// is taken when the file names none.
 #[test]
-fn a_path_error_against_another_path_than_the_controllers_is_refused() {
+fn the_path_error_is_measured_against_the_controllers_reference() {
     let dir = tempfile::tempdir().unwrap();
     let (controller, plant) = (built_fmu("HlcsController"), built_fmu("CkcmPlant"));
     let write = |stem: &str, parameters: &str, measured: &str| {
@@ -706,9 +707,14 @@ fn a_path_error_against_another_path_than_the_controllers_is_refused() {
                  [[fmu]]\nname = \"controller\"\npath = {:?}\n[fmu.parameters]\n{parameters}\n\n\
                  [[fmu]]\nname = \"plant\"\npath = {:?}\n\n\
                  [metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
-                 pose = \"plant.pose\"\ntrajectory = {{ {measured} }}\n",
+                 pose = \"plant.pose\"\n{measured}",
                 controller.to_str().unwrap(),
-                plant.to_str().unwrap()
+                plant.to_str().unwrap(),
+                measured = if measured.is_empty() {
+                    String::new()
+                } else {
+                    format!("trajectory = {{ {measured} }}\n")
+                }
             ),
         )
         .unwrap();
@@ -722,8 +728,8 @@ fn a_path_error_against_another_path_than_the_controllers_is_refused() {
             "kind = \"circle\", duration = 15.0",
             "metrics.trajectory is a circle of 15 s at home height 0.5 m, but FMU \"controller\" \
              tracks a line of 15 s at home height 0.5 m: the path error would measure the \
-             platform against another path; make them equal, or leave out metrics.pose and \
-             metrics.trajectory",
+             platform against another path; make them equal, or leave out metrics.trajectory \
+             to measure against the controller's",
         ),
         (
             "duration",
@@ -779,6 +785,40 @@ fn a_path_error_against_another_path_than_the_controllers_is_refused() {
             .arg(dir.path().join(format!("{stem}_out")))
             .assert()
             .success();
+    }
+    // Without metrics.trajectory the path is the controller's own: the same figures as the
+    // matching one written out; an external or changing reference leaves nothing to take.
+    orchestrator()
+        .arg("run")
+        .arg(write(
+            "derived",
+            "trajectory = \"circle\"\nduration = 5.0\n\"model.home_height\" = 0.45",
+            "",
+        ))
+        .arg("--out")
+        .arg(dir.path().join("derived_out"))
+        .assert()
+        .success();
+    let summary = |stem: &str| {
+        std::fs::read_to_string(dir.path().join(format!("{stem}_out/summary.csv"))).unwrap()
+    };
+    assert_eq!(summary("derived"), summary("same"));
+    assert!(
+        !summary("derived").lines().nth(1).unwrap().ends_with(','),
+        "a path error"
+    );
+    for (stem, parameters) in [
+        ("external_only", "trajectory = \"external\""),
+        (
+            "per_trial_only",
+            "duration = { base = 15.0, per_trial = 1.0 }",
+        ),
+    ] {
+        let scenario = write(stem, parameters, "");
+        run_fails(&scenario, &out).says(
+            "metrics.pose needs metrics.trajectory, the path it is measured against (without \
+             it, the reference of the scenario's HlcsController FMU is taken",
+        );
     }
 }
 
