@@ -854,6 +854,94 @@ fn memory_update_axes_and_case_seeds_reach_each_case_scenario() {
     );
 }
 
+/// An axis that moves the controller's reference, with `metrics.trajectory` left out of the
+/// base: each case's path error is measured against its own reference (the figures of the
+/// case's path written out). A learning update that overflows fails its case, naming the
+/// update, and the sweep goes on; the report counts one trial as one.
+#[test]
+fn each_case_is_measured_against_its_own_reference_and_an_overflow_fails_its_case() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = |metrics_trajectory: &str| {
+        format!(
+            "step_size = 0.001\nstop_time = 0.4\ntrials = 2\n\
+             [[fmu]]\nname = \"controller\"\npath = {c:?}\n\
+             [fmu.parameters]\ntrajectory = \"circle\"\nduration = 0.4\n\
+             [[fmu]]\nname = \"plant\"\npath = {p:?}\n\
+             [[connection]]\nfrom = \"plant.length\"\nto = \"controller.length\"\n\
+             [[connection]]\nfrom = \"plant.velocity\"\nto = \"controller.velocity\"\n\
+             [[connection]]\nfrom = \"controller.force\"\nto = \"plant.force\"\n\
+             [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n\
+             [metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
+             pose = \"plant.pose\"\n{metrics_trajectory}",
+            c = built_fmu("HlcsController"),
+            p = built_fmu("CkcmPlant"),
+        )
+    };
+    fs::write(tmp.path().join("base.toml"), base("")).unwrap();
+    let sweep = tmp.path().join("duration.toml");
+    fs::write(
+        &sweep,
+        "base = \"base.toml\"\ntrials = 1\n\
+         [[axis]]\nname = \"duration\"\nparameters = [\"controller.duration\"]\nvalues = [0.4, 0.8]\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    sweep_succeeds(&sweep, &out, 1);
+    // Case 1 alone, its path written out: the same summary, byte for byte.
+    let alone = tmp.path().join("alone.toml");
+    let text = base("trajectory = { kind = \"circle\", duration = 0.8 }\n")
+        .replace("duration = 0.4\n", "duration = 0.8\n");
+    fs::write(&alone, text).unwrap();
+    let alone_out = tmp.path().join("alone");
+    orchestrator()
+        .arg("run")
+        .arg(&alone)
+        .args(["--trials", "1", "--out"])
+        .arg(&alone_out)
+        .assert()
+        .success();
+    let summary = |dir: &Path| fs::read_to_string(dir.join("summary.csv")).unwrap();
+    assert_eq!(summary(&out.join("cases/case_0001")), summary(&alone_out));
+    assert_ne!(
+        summary(&out.join("cases/case_0000")),
+        summary(&alone_out),
+        "the two cases' paths differ"
+    );
+    let report = fs::read_to_string(out.join("sweep-report.md")).unwrap();
+    assert!(report.contains(": 2 cases (every combination of the axes), 1 trial each."));
+
+    // A gain that overflows the memory: that case fails, the other runs.
+    let sweep = tmp.path().join("gain.toml");
+    fs::write(
+        &sweep,
+        "base = \"base.toml\"\n\
+         [[axis]]\nmemory = \"controller.memory\"\nsetting = \"gain\"\nvalues = [1.0, 1e308]\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("gain");
+    let stderr = sweep_succeeds(&sweep, &out, 1);
+    assert!(
+        stderr.contains("1 of the 2 cases run here failed"),
+        "{stderr}"
+    );
+    let outcome = fs::read_to_string(out.join("cases/case_0001/outcome.toml")).unwrap();
+    assert!(outcome.contains("status = \"failed\""), "{outcome}");
+    assert!(
+        outcome.contains(
+            "trial 0: the update of memory channel \"controller.memory\" ([memory.update]: \
+             no filter, lead δ = 0 samples, forgetting α = 1, gain g = 1e308) made the next \
+             trial's memory not finite"
+        ),
+        "{outcome}"
+    );
+    let csv = fs::read_to_string(out.join("sweep.csv")).unwrap();
+    assert!(
+        csv.lines().nth(1).unwrap().contains(",converged,2,"),
+        "{csv}"
+    );
+    assert!(csv.lines().nth(2).unwrap().contains(",failed,0,"), "{csv}");
+}
+
 /// `--fmu-logging` forwards the FMUs' messages, named by instance, as `simulate` does.
 #[test]
 fn fmu_logging_forwards_the_fmus_messages() {

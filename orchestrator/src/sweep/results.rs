@@ -316,17 +316,18 @@ fn report(spec: &SweepSpec, results: &[CaseResult], figures: &[(String, String)]
     let _ = writeln!(s, "# Sweep report\n");
     let _ = writeln!(
         s,
-        "Sweep `{}` over the base scenario `{}`: {n} cases ({}), {} trials each.\n",
+        "Sweep `{}` over the base scenario `{}`: {n} case{} ({}), {k} trial{} each.\n",
         spec.source
             .file_name()
             .unwrap_or_default()
             .to_string_lossy(),
         spec.base.file_name().unwrap_or_default().to_string_lossy(),
+        if n == 1 { "" } else { "s" },
         match spec.combine {
             super::Combine::Product => "every combination of the axes",
             super::Combine::Zip => "the axes zipped",
         },
-        k
+        if k == 1 { "" } else { "s" },
     );
     let _ = writeln!(s, "| axis | target | values |\n|---|---|---|");
     for a in &spec.axes {
@@ -358,8 +359,8 @@ fn report(spec: &SweepSpec, results: &[CaseResult], figures: &[(String, String)]
     let _ = writeln!(
         s,
         "\nA case **converged** when the max leg error of its last trial is within 2× of its \
-         best trial, **diverged** when it is more, **failed** when an FMU stopped it (the \
-         reason is in the case folder's `outcome.toml`).\n"
+         best trial, **diverged** when it is more, **failed** when an FMU or its learning update \
+         stopped it (the reason is in the case folder's `outcome.toml`).\n"
     );
     let th_mm = spec.threshold * 1e3;
     let _ = writeln!(
