@@ -252,6 +252,35 @@ fn no_learning_at_all_converges_and_huge_gains_are_refused_or_shown_short() {
         stderr.contains("--gain-scale = 1e304 makes the learning gain Φ overflow to inf"),
         "{stderr}"
     );
+    // So is an update gain whose convergence factor overflows: before, the chart's axis
+    // ended at inf and `analyze` never finished.
+    let over = dir.path().join("over_gain");
+    let o = analyze(&scenario, &over, &["--gain", "1e308"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        stderr.contains("gain g = 1e308, the convergence factor overflows to inf"),
+        "{stderr}"
+    );
+    assert!(!over.exists());
+    // A finite peak near the largest double (1.6e308): the chart's margin above it stays
+    // finite, so the analysis finishes (it hung there too).
+    let near = dir.path().join("near");
+    let o = orchestrator()
+        .arg("analyze")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&near)
+        .args([
+            "--order", "4", "--cutoff", "8", "--lead", "25", "--gain", "8e307",
+        ])
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("peak factor 1.617e308"), "{stdout}");
+    assert!(near.join("convergence.svg").is_file());
     let o = analyze(
         &scenario,
         &dir.path().join("huge"),

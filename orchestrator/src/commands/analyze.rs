@@ -23,6 +23,20 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     let (scenario, _, fmus) = Scenario::open(&args.scenario)?;
     let problem = problem(&args, &scenario, &fmus)?;
     let analysis = analyse(&problem).with_context(|| format!("{}", args.scenario.display()))?;
+    // A factor beyond the largest double says no more than "diverges", and neither the
+    // chart nor the table can hold it.
+    let worst = &analysis.worst_case.peak;
+    if !worst.value.is_finite() {
+        bail!(
+            "{}: with {}, the convergence factor overflows to {} (at {:.2} Hz, mode {}): \
+             learning diverges beyond what can be charted; analyse a smaller gain",
+            args.scenario.display(),
+            describe_update(&problem.update),
+            worst.value,
+            worst.frequency,
+            worst.mode + 1
+        );
+    }
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("results").join(format!(
             "{}-convergence",

@@ -44,9 +44,11 @@ pub fn convergence_factor(
             .filter(positive)
     };
     // Without a positive factor (every one 0: no learning), the axis keeps its floor; an
-    // infinite bound would never finish laying out the log axis' ticks.
+    // infinite bound would never finish laying out the log axis' ticks, so the margin above
+    // the largest factor stops at the largest double (a factor of 1.7e308 hung `analyze`).
     let lo = all().copied().reduce(f64::min).unwrap_or(1e-6).max(1e-6);
     let hi = all().copied().fold(0.0, f64::max).max(2.0);
+    let top = (hi * 1.2).min(f64::MAX);
     let f_lo = frequencies.first().copied().unwrap_or(0.1);
     let f_hi = frequencies.last().copied().unwrap_or(500.0);
     render(path, (1000, 50 + 600), title, |body| -> DrawResult {
@@ -54,7 +56,7 @@ pub fn convergence_factor(
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(80)
-            .build_cartesian_2d((f_lo..f_hi).log_scale(), (lo * 0.8..hi * 1.2).log_scale())?;
+            .build_cartesian_2d((f_lo..f_hi).log_scale(), (lo * 0.8..top).log_scale())?;
         chart
             .configure_mesh()
             .x_desc("frequency [Hz]")
