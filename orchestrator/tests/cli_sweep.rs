@@ -942,6 +942,50 @@ fn each_case_is_measured_against_its_own_reference_and_an_overflow_fails_its_cas
     assert!(csv.lines().nth(2).unwrap().contains(",failed,0,"), "{csv}");
 }
 
+/// An axis whose values span more than a double (forgetting ±1.7e308, which one trial
+/// survives): its figure is left out with a warning, and the sweep finishes. Before, laying
+/// out that figure's axis never ended.
+#[test]
+fn an_axis_spanning_more_than_a_double_leaves_its_figure_out() {
+    let tmp = tempfile::tempdir().unwrap();
+    setup(tmp.path(), 1);
+    let sweep = tmp.path().join("alpha.toml");
+    fs::write(
+        &sweep,
+        "base = \"base.toml\"\ntrials = 1\n[[axis]]\nname = \"alpha\"\n\
+         memory = \"controller.memory\"\nsetting = \"forgetting\"\n",
+    )
+    .unwrap();
+    for (values, drawn) in [("[-1.7e308, 1.7e308]", false), ("[-8e307, 8e307]", true)] {
+        let mut text = fs::read_to_string(&sweep).unwrap();
+        text.truncate(text.find("values").unwrap_or(text.len()));
+        fs::write(&sweep, format!("{text}values = {values}\n")).unwrap();
+        let out = tmp.path().join(format!("out-{drawn}"));
+        let o = orchestrator()
+            .arg("sweep")
+            .arg(&sweep)
+            .arg("--out")
+            .arg(&out)
+            .timeout(Duration::from_secs(120))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{values}: {stderr}");
+        let figure = out.join("figures/final_vs_alpha.svg");
+        assert_eq!(figure.is_file(), drawn, "{values}");
+        let report = fs::read_to_string(out.join("sweep-report.md")).unwrap();
+        assert_eq!(report.contains("final_vs_alpha.svg"), drawn, "{values}");
+        assert_eq!(
+            stderr.contains(
+                "warning: figures/final_vs_alpha.svg is not drawn: the values of axis \"alpha\" \
+                 span more than a linear axis can hold"
+            ),
+            !drawn,
+            "{stderr}"
+        );
+    }
+}
+
 /// `--fmu-logging` forwards the FMUs' messages, named by instance, as `simulate` does.
 #[test]
 fn fmu_logging_forwards_the_fmus_messages() {

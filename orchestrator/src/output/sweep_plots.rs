@@ -38,26 +38,33 @@ fn tick(v: f64) -> String {
 }
 
 /// A metric (log scale) against a parameter, one colour per group, legend right of the data.
+/// `Ok(false)`: not drawn, because the parameter's values span more than an axis can hold
+/// (such as ±1.7e308: the axis' length overflows, and laying out its ticks never ends).
 pub fn scatter(
     path: &Path,
     title: &str,
     x_label: &str,
     y_label: &str,
     groups: &[(String, Vec<(f64, f64)>)],
-) -> Result<(), OutputError> {
+) -> Result<bool, OutputError> {
     let pts = || groups.iter().flat_map(|(_, p)| p.iter().copied());
     let (y_lo, y_hi) = log_bounds(pts().map(|p| p.1)).unwrap_or((1e-3, 1.0));
     let xs: Vec<f64> = pts().map(|p| p.0).filter(|x| x.is_finite()).collect();
     let x_lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
     let x_hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let (x_lo, x_hi) = if x_lo.is_finite() && x_hi > x_lo {
-        let pad = 0.05 * (x_hi - x_lo);
+        let pad = 0.05 * x_hi - 0.05 * x_lo;
         (x_lo - pad, x_hi + pad)
     } else if x_lo.is_finite() {
-        (x_lo - 0.5, x_lo + 0.5)
+        // ±0.5, unless that vanishes in the value's rounding (a constant 1e20).
+        let pad = 0.5f64.max(x_lo.abs() * 1e-9);
+        (x_lo - pad, x_lo + pad)
     } else {
         (0.0, 1.0)
     };
+    if !(x_hi - x_lo).is_finite() {
+        return Ok(false);
+    }
     render(path, (1000, 560), title, |body| {
         let (plot, legend) = body.split_horizontally(790);
         let mut chart = ChartBuilder::on(&plot)
@@ -90,6 +97,7 @@ pub fn scatter(
         }
         Ok(())
     })
+    .map(|()| true)
 }
 
 /// Colour of `t` in 0..1 on a blue (low) to red (high) ramp.

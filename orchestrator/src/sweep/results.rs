@@ -234,14 +234,22 @@ fn write_figures(
             })
             .collect();
         let file = format!("final_vs_{}.svg", slug(&axis.name));
-        sweep_plots::scatter(
+        let drawn = sweep_plots::scatter(
             &fig.join(&file),
             &format!("Final max leg error vs {}", axis.name),
             &axis.name,
             "max |e| in the last trial [mm]",
             &series,
         )?;
-        written.push((file, format!("final max leg error against {}", axis.name)));
+        if drawn {
+            written.push((file, format!("final max leg error against {}", axis.name)));
+        } else {
+            crate::console!(
+                "warning: figures/{file} is not drawn: the values of axis {:?} span more than \
+                 a linear axis can hold",
+                axis.name
+            );
+        }
     }
     // A heatmap when the sweep is a two-axis numeric grid.
     if spec.axes.len() == 2 && spec.axes.iter().all(|a| a.numeric && a.grid) {
