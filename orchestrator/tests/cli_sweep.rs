@@ -27,20 +27,26 @@ impl Fails for assert_cmd::Command {
 }
 
 /// A short circle campaign (0.4 s, 3 trials) as the base, and a sweep of 6 cases over it.
-fn setup(dir: &Path, trials: usize) -> PathBuf {
-    let base = format!(
-        "step_size = 0.001\nstop_time = 0.4\ntrials = 3\n\
+/// The CKCM loop on the 0.4 s circle, `trials` trials, then `tail` (its record and metrics).
+fn closed_loop(trials: usize, tail: &str) -> String {
+    format!(
+        "step_size = 0.001\nstop_time = 0.4\ntrials = {trials}\n\
          [[fmu]]\nname = \"controller\"\npath = {c:?}\n\
          [fmu.parameters]\ntrajectory = \"circle\"\nduration = 0.4\n\
          [[fmu]]\nname = \"plant\"\npath = {p:?}\n\
          [[connection]]\nfrom = \"plant.length\"\nto = \"controller.length\"\n\
          [[connection]]\nfrom = \"plant.velocity\"\nto = \"controller.velocity\"\n\
          [[connection]]\nfrom = \"controller.force\"\nto = \"plant.force\"\n\
-         [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n\
-         [record]\nvariables = [\"controller.error\"]\n\
-         [metrics]\nerror = \"controller.error\"\n",
+         [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n{tail}",
         c = built_fmu("HlcsController"),
         p = built_fmu("CkcmPlant"),
+    )
+}
+
+fn setup(dir: &Path, trials: usize) -> PathBuf {
+    let base = closed_loop(
+        3,
+        "[record]\nvariables = [\"controller.error\"]\n[metrics]\nerror = \"controller.error\"\n",
     );
     fs::write(dir.join("base.toml"), base).unwrap();
     let sweep = format!(
@@ -862,19 +868,12 @@ fn memory_update_axes_and_case_seeds_reach_each_case_scenario() {
 fn each_case_is_measured_against_its_own_reference_and_an_overflow_fails_its_case() {
     let tmp = tempfile::tempdir().unwrap();
     let base = |metrics_trajectory: &str| {
-        format!(
-            "step_size = 0.001\nstop_time = 0.4\ntrials = 2\n\
-             [[fmu]]\nname = \"controller\"\npath = {c:?}\n\
-             [fmu.parameters]\ntrajectory = \"circle\"\nduration = 0.4\n\
-             [[fmu]]\nname = \"plant\"\npath = {p:?}\n\
-             [[connection]]\nfrom = \"plant.length\"\nto = \"controller.length\"\n\
-             [[connection]]\nfrom = \"plant.velocity\"\nto = \"controller.velocity\"\n\
-             [[connection]]\nfrom = \"controller.force\"\nto = \"plant.force\"\n\
-             [[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n\
-             [metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
-             pose = \"plant.pose\"\n{metrics_trajectory}",
-            c = built_fmu("HlcsController"),
-            p = built_fmu("CkcmPlant"),
+        closed_loop(
+            2,
+            &format!(
+                "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
+                 pose = \"plant.pose\"\n{metrics_trajectory}"
+            ),
         )
     };
     fs::write(tmp.path().join("base.toml"), base("")).unwrap();
