@@ -653,6 +653,19 @@ fn build_axis(
     } else {
         None
     };
+    // Finite bounds can still give points or draws beyond a double (a span of ±1.7e308, a
+    // power of 10 above 1e308): named here, at the axis, not as a case's refused scenario.
+    if let Some((i, x)) = numbers
+        .iter()
+        .flatten()
+        .enumerate()
+        .find(|(_, x)| !x.is_finite())
+    {
+        return Err(format!(
+            "its value {} is {x}: the range overflows a double; narrow it",
+            i + 1
+        ));
+    }
     let source = if let Some((lo, hi, n)) = a.linspace {
         format!("linspace [{lo}, {hi}], {n} points")
     } else if let Some((lo, hi, n)) = a.logspace {
@@ -972,6 +985,23 @@ mod tests {
             (
                 "[[axis]]\nparameters = [\"plant.rod_mass\"]\nnormal = [1.0, -0.1]\nsamples = 3\n",
                 "must not be negative",
+            ),
+            // Finite bounds whose points overflow: named at the axis (they were refused as
+            // case 0's scenario, "forgetting = NaN").
+            (
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"forgetting\"\n\
+                 linspace = [-1.7e308, 1.7e308, 3]\n",
+                "axis 1: its value 1 is NaN: the range overflows a double; narrow it",
+            ),
+            (
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"gain\"\n\
+                 logspace = [300, 309, 3]\n",
+                "axis 1: its value 3 is inf: the range overflows a double",
+            ),
+            (
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"gain\"\n\
+                 lhs = [-1.7e308, 1.7e308]\nsamples = 3\n",
+                "the range overflows a double",
             ),
         ];
         for (axis, want) in cases {
