@@ -618,24 +618,30 @@ fn build_axis(
     } else if let Some((lo, hi)) = a.uniform {
         finite(&[lo, hi])?;
         let n = samples()?;
-        let d = Uniform::new_inclusive(lo, hi).map_err(|e| format!("uniform [{lo}, {hi}]: {e}"))?;
+        let d = Uniform::new_inclusive(lo, hi)
+            .map_err(|e| format!("uniform [{}, {}]: {e}", Shown(lo), Shown(hi)))?;
         Some((0..n).map(|_| d.sample(&mut rng)).collect())
     } else if let Some((mean, sd)) = a.normal {
         finite(&[mean, sd])?;
         // rand_distr takes a negative σ as |σ|; a typo there must not run a sweep.
         if sd < 0.0 {
             return Err(format!(
-                "normal [{mean}, {sd}]: the standard deviation must not be negative"
+                "normal [{}, {}]: the standard deviation must not be negative",
+                Shown(mean),
+                Shown(sd)
             ));
         }
         let n = samples()?;
-        let d = Normal::new(mean, sd).map_err(|e| format!("normal({mean}, {sd}): {e}"))?;
+        let d = Normal::new(mean, sd)
+            .map_err(|e| format!("normal({}, {}): {e}", Shown(mean), Shown(sd)))?;
         Some((0..n).map(|_| d.sample(&mut rng)).collect())
     } else if let Some((lo, hi)) = a.lhs {
         finite(&[lo, hi])?;
         if hi < lo {
             return Err(format!(
-                "lhs [{lo}, {hi}]: the upper bound is below the lower"
+                "lhs [{}, {}]: the upper bound is below the lower",
+                Shown(lo),
+                Shown(hi)
             ));
         }
         let n = samples()?;
@@ -667,19 +673,28 @@ fn build_axis(
         ));
     }
     let source = if let Some((lo, hi, n)) = a.linspace {
-        format!("linspace [{lo}, {hi}], {n} points")
+        format!("linspace [{}, {}], {n} points", Shown(lo), Shown(hi))
     } else if let Some((lo, hi, n)) = a.logspace {
         format!("logspace [1e{lo}, 1e{hi}], {n} points")
     } else if let Some((lo, hi)) = a.uniform {
-        format!("uniform [{lo}, {hi}], {} draws", a.samples.unwrap_or(0))
+        format!(
+            "uniform [{}, {}], {} draws",
+            Shown(lo),
+            Shown(hi),
+            a.samples.unwrap_or(0)
+        )
     } else if let Some((mean, sd)) = a.normal {
         format!(
-            "normal (mean {mean}, sd {sd}), {} draws",
+            "normal (mean {}, sd {}), {} draws",
+            Shown(mean),
+            Shown(sd),
             a.samples.unwrap_or(0)
         )
     } else if let Some((lo, hi)) = a.lhs {
         format!(
-            "Latin hypercube [{lo}, {hi}], {} draws",
+            "Latin hypercube [{}, {}], {} draws",
+            Shown(lo),
+            Shown(hi),
             a.samples.unwrap_or(0)
         )
     } else {
@@ -1002,6 +1017,12 @@ mod tests {
                 "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"gain\"\n\
                  lhs = [-1.7e308, 1.7e308]\nsamples = 3\n",
                 "the range overflows a double",
+            ),
+            // The distribution's own refusal, its bounds shown short (not 309 digits).
+            (
+                "[[axis]]\nmemory = \"controller.memory\"\nsetting = \"gain\"\n\
+                 uniform = [-1.7e308, 1.7e308]\nsamples = 3\n",
+                "uniform [-1.7e308, 1.7e308]: ",
             ),
         ];
         for (axis, want) in cases {
