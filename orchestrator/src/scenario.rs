@@ -956,18 +956,12 @@ impl Scenario {
                     }
                     // Without one, the path is the reference the CKCM controller tracks.
                     None if pose.is_some() => {
-                        let tracked = fmus
+                        let mut tracked = fmus
                             .iter()
                             .zip(&mds)
                             .filter_map(|(f, md)| tracked_trajectory(f, md));
-                        let mut distinct: Vec<ckcm::Trajectory> = Vec::new();
-                        for t in tracked {
-                            if !distinct.contains(&t) {
-                                distinct.push(t);
-                            }
-                        }
-                        match distinct[..] {
-                            [one] => Some(one),
+                        match tracked.next() {
+                            Some(one) if tracked.all(|t| t == one) => Some(one),
                             _ => return cx.err(
                                 spanned.span(),
                                 "metrics.pose needs metrics.trajectory, the path it is measured \

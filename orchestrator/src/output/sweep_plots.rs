@@ -53,12 +53,10 @@ pub fn scatter(
     let x_lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
     let x_hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let (x_lo, x_hi) = if x_lo.is_finite() && x_hi > x_lo {
-        let pad = 0.05 * x_hi - 0.05 * x_lo;
+        let pad = 0.05 * (x_hi - x_lo);
         (x_lo - pad, x_hi + pad)
     } else if x_lo.is_finite() {
-        // ±0.5, unless that vanishes in the value's rounding (a constant 1e20).
-        let pad = 0.5f64.max(x_lo.abs() * 1e-9);
-        (x_lo - pad, x_lo + pad)
+        (x_lo - 0.5, x_lo + 0.5)
     } else {
         (0.0, 1.0)
     };
