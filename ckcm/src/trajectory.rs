@@ -16,6 +16,31 @@ pub enum TrajectoryKind {
     Circle,
 }
 
+impl TrajectoryKind {
+    /// Every kind, in the order of the controller's `trajectory` items.
+    pub const ALL: [TrajectoryKind; 3] = [Self::Hold, Self::Line, Self::Circle];
+
+    /// The one spelling scenario files, the controller's enumeration items and result
+    /// folders share, so that none of them drifts from the others.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Hold => "hold",
+            Self::Line => "line",
+            Self::Circle => "circle",
+        }
+    }
+
+    /// The kind [`name`](Self::name) spells, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The names of [`ALL`](Self::ALL), comma-separated, for error messages.
+    pub fn names() -> String {
+        Self::ALL.map(Self::name).join(", ")
+    }
+}
+
 /// A sampled reference: pose, world twist and its derivative.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reference {

@@ -2,10 +2,10 @@
 //! do not reach: a start time other than zero, and the model's own refusal of a bad duration
 //! (the glue's declared range stops it first; the model must not rely on that).
 
-use ckcm::{Mechanism, Params, Trajectory};
+use ckcm::{Mechanism, Params, Trajectory, TrajectoryKind};
 use fmu_core::Model;
 use hlcs_controller::HlcsController;
-use hlcs_controller::md::enums::TRAJECTORY_CIRCLE;
+use hlcs_controller::md::enums::{TRAJECTORY_CIRCLE, TRAJECTORY_ITEMS};
 use hlcs_controller::md::vr;
 
 const H: f64 = 1e-3;
@@ -111,4 +111,21 @@ fn a_duration_that_is_not_positive_is_refused_by_the_model() {
         let e = c.initialize(0.0).unwrap_err();
         assert!(e.message.contains("duration"), "{}", e.message);
     }
+}
+
+/// Scenario files, result folders and the orchestrator's lookups spell a path by
+/// `TrajectoryKind::name`; the controller's XML must number the same names in the same order.
+#[test]
+fn the_kinds_names_are_the_controllers_items() {
+    let items: Vec<&str> = TRAJECTORY_ITEMS.split(", ").collect();
+    for (i, kind) in TrajectoryKind::ALL.into_iter().enumerate() {
+        let item = format!("{} {}", i + 1, kind.name());
+        assert!(
+            items.contains(&item.as_str()),
+            "{kind:?}: {item:?} is not among the controller's items {TRAJECTORY_ITEMS:?}"
+        );
+        assert_eq!(TrajectoryKind::from_name(kind.name()), Some(kind));
+    }
+    assert_eq!(TrajectoryKind::from_name("external"), None);
+    assert_eq!(TrajectoryKind::names(), "hold, line, circle");
 }

@@ -1150,16 +1150,15 @@ fn parse_trajectory(
     t: &Spanned<RawTrajectory>,
 ) -> Result<ckcm::Trajectory, ScenarioError> {
     let r = t.get_ref();
-    let kind = match r.kind.as_str() {
-        "hold" => ckcm::TrajectoryKind::Hold,
-        "line" => ckcm::TrajectoryKind::Line,
-        "circle" => ckcm::TrajectoryKind::Circle,
-        other => {
-            return cx.err(
-                t.span(),
-                format!("metrics.trajectory.kind {other:?} is not one of hold, line, circle"),
-            );
-        }
+    let Some(kind) = TrajectoryKind::from_name(&r.kind) else {
+        return cx.err(
+            t.span(),
+            format!(
+                "metrics.trajectory.kind {:?} is not one of {}",
+                r.kind,
+                TrajectoryKind::names()
+            ),
+        );
     };
     if !(r.duration > 0.0 && r.home_height > 0.0) {
         return cx.err(
@@ -1185,12 +1184,11 @@ fn check_tracked(
 ) -> Result<(), ScenarioError> {
     let shown = |t: &ckcm::Trajectory| {
         format!(
-            "{:?} of {} s at home height {} m",
-            t.kind,
+            "{} of {} s at home height {} m",
+            t.kind.name(),
             Shown(t.duration),
             Shown(t.home_height)
         )
-        .to_lowercase()
     };
     for (spec, md) in fmus.iter().zip(mds) {
         let Some(tracked) = tracked_trajectory(spec, md) else {
@@ -1241,14 +1239,9 @@ fn tracked_trajectory(spec: &FmuSpec, md: &ModelDescription) -> Option<ckcm::Tra
     let Value::Integer(item) = value("trajectory")? else {
         return None;
     };
-    let kind = [
-        ("hold", TrajectoryKind::Hold),
-        ("line", TrajectoryKind::Line),
-        ("circle", TrajectoryKind::Circle),
-    ]
-    .into_iter()
-    .find(|(name, _)| md.enumeration_item("trajectory", name) == Some(item))?
-    .1;
+    let kind = TrajectoryKind::ALL
+        .into_iter()
+        .find(|k| md.enumeration_item("trajectory", k.name()) == Some(item))?;
     Some(ckcm::Trajectory {
         kind,
         duration: real("duration")?,

@@ -273,19 +273,16 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
     }
     // Items by name from the controller's XML, so a renumbered item needs no edit here.
     let trajectory = get("trajectory")? as i32;
-    let item = |name| ctrl_md.enumeration_item("trajectory", name) == Some(trajectory);
-    let kind = if item("hold") {
-        TrajectoryKind::Hold
-    } else if item("line") {
-        TrajectoryKind::Line
-    } else if item("circle") {
-        TrajectoryKind::Circle
-    } else {
+    let Some(kind) = TrajectoryKind::ALL
+        .into_iter()
+        .find(|k| ctrl_md.enumeration_item("trajectory", k.name()) == Some(trajectory))
+    else {
         bail!(
             "{}: FMU {:?} has trajectory = {trajectory}: the analysis needs the controller's \
-             own reference (hold, line or circle), not an external one",
+             own reference ({}), not an external one",
             file.display(),
-            ctrl_spec.name
+            ctrl_spec.name,
+            TrajectoryKind::names()
         );
     };
     let duration = get("duration")?;

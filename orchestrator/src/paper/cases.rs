@@ -82,11 +82,7 @@ pub const TRAJECTORIES: [TrajectoryKind; 2] = [TrajectoryKind::Line, TrajectoryK
 
 /// Directory and file name part of a trajectory.
 pub fn traj_slug(k: TrajectoryKind) -> &'static str {
-    match k {
-        TrajectoryKind::Hold => "hold",
-        TrajectoryKind::Line => "line",
-        TrajectoryKind::Circle => "circle",
-    }
+    k.name()
 }
 
 /// Parses [`traj_slug`] (line or circle).
