@@ -198,6 +198,24 @@ fn default_rho() -> Spanned<f64> {
 /// Most steps per trial: 2^53, where t_n = t_0 + n·h stops telling samples apart.
 const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 
+/// Why a step of `h` cannot advance time over [`start`, `stop`], if it cannot. Far from
+/// t = 0 doubles are far apart (16 s at 1e17 s), and t_n = t_0 + n·h then repeats a time:
+/// every FMU would be stepped at the same point, and the rows would share one time. Each t_n
+/// is within two spacings of its exact value, so more than four spacings keep them apart.
+pub fn unresolved_step(start: f64, stop: f64, h: f64) -> Option<String> {
+    let far = start.abs().max(stop.abs());
+    let spacing = far.next_up() - far;
+    (h <= 4.0 * spacing).then(|| {
+        format!(
+            "a step of {} s cannot advance time near t = {} s, where neighbouring times are {} s \
+             apart; it must be more than four times that: start nearer t = 0 or take longer steps",
+            Shown(h),
+            Shown(far),
+            Shown(spacing)
+        )
+    })
+}
+
 /// Default weight of the λ-norm, 1/s.
 pub const DEFAULT_RHO: f64 = 1.0;
 
@@ -621,6 +639,9 @@ impl Scenario {
                     raw.start_time
                 ),
             );
+        }
+        if let Some(why) = unresolved_step(raw.start_time, stop, h) {
+            return cx.err(raw.step_size.span(), format!("step_size: {why}"));
         }
         let steps_f = (stop - raw.start_time) / h;
         // Beyond 2^53 steps t_n = t_0 + n·h no longer tells samples apart.
@@ -1658,6 +1679,32 @@ mod tests {
             assert_eq!(err.line, Some(2), "{err}");
             assert!(err.to_string().contains("at least one step"), "{err}");
         }
+    }
+
+    /// Far from t = 0 a millisecond step would repeat one time in every row.
+    #[test]
+    fn a_step_below_the_time_resolution_is_refused_at_its_line() {
+        let parse = |times: &str| {
+            let text =
+                format!("{times}\nstep_size = 0.001\n[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n");
+            Scenario::parse(&text, Path::new("s.toml"), |_| {
+                ModelDescription::parse(MD).map_err(|e| e.to_string())
+            })
+        };
+        // Doubles near 1e17 are 16 s apart; near 1e12, 1.2e-4 s (more than 4 × that is
+        // 4.9e-4 s, so a millisecond still resolves).
+        let err = parse("start_time = 1e17\nstop_time = 100000000000000016.0").unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert!(
+            err.to_string().contains(
+                "step_size: a step of 0.001 s cannot advance time near t = 1.0000000000000002e17 \
+                 s, where neighbouring times are 16 s apart"
+            ),
+            "{err}"
+        );
+        assert!(parse("start_time = 1e13\nstop_time = 10000000000001.0").is_err());
+        let sc = parse("start_time = 1e12\nstop_time = 1000000000001.0").unwrap();
+        assert!((1..sc.steps).all(|n| sc.time(n) > sc.time(n - 1)));
     }
 
     #[test]

@@ -297,6 +297,9 @@ impl Grid {
         );
         ensure!(step.is_finite(), "step size {step_s} must be finite");
         ensure!(step > 0.0, "step size {step_s} s must be positive");
+        if let Some(why) = crate::scenario::unresolved_step(start, stop, step) {
+            bail!("{why}");
+        }
         let ratio = (stop - start) / step;
         ensure!(
             ratio <= MAX_STEPS as f64,
@@ -907,6 +910,11 @@ mod tests {
         }
         let err = Grid::new(0.0, 1e3, 1e-9, true).unwrap_err().to_string();
         assert!(err.contains("--step-size"), "{err}");
+        // Doubles near 1e17 are 16 s apart: steps of 1 s would repeat one time.
+        let err = Grid::new(1e17, 1e17 + 32.0, 1.0, true)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("cannot advance time"), "{err}");
         for step in [1e6, 1.5] {
             let err = Grid::new(0.0, 1.0, step, true).unwrap_err().to_string();
             assert!(err.contains("at least one step"), "{err}");
