@@ -204,8 +204,10 @@ const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 /// is within two spacings of its exact value, so more than four spacings keep them apart.
 pub fn unresolved_step(start: f64, stop: f64, h: f64) -> Option<String> {
     let far = start.abs().max(stop.abs());
-    let spacing = far.next_up() - far;
-    (h <= 4.0 * spacing).then(|| {
+    // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
+    let spacing = f64::from_bits(far.to_bits() + 1) - far;
+    let resolves = h > 4.0 * spacing;
+    (!resolves).then(|| {
         format!(
             "a step of {} s cannot advance time near t = {} s, where neighbouring times are {} s \
              apart; it must be more than four times that: start nearer t = 0 or take longer steps",
