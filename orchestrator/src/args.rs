@@ -76,6 +76,8 @@ pub struct RunArgs {
 
 /// `simulate`. A negative number after an option is its value: `--start-time -1` is a start
 /// time (FMI allows one before 0), not an unknown option.
+// Options that take a Real also accept values starting with a hyphen: clap's negative-number
+// test does not know an exponent's sign (`-1e-3`), here or in `paper` and `analyze`.
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct SimulateArgs {
@@ -90,14 +92,14 @@ pub struct SimulateArgs {
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Start time in s (default: the model's DefaultExperiment, else 0).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub start_time: Option<f64>,
     /// Stop time in s (default: the model's DefaultExperiment, else 1).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub stop_time: Option<f64>,
     /// Communication step size in s (default: the model's DefaultExperiment, else fmpy's
     /// default output interval: 500 to 1000 steps over the span, e.g. 2 ms for 1 s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub step_size: Option<f64>,
     /// Start values, NAME=VALUE (repeatable): numbers for Real and Integer, true/false for
     /// Boolean, a number or an item name for Enumeration; an array name (`force`) sets
@@ -134,10 +136,10 @@ pub struct PaperArgs {
     #[arg(long, default_value_t = 10)]
     pub trials: usize,
     /// Line duration in s (the paper: 15; shorter for quick checks).
-    #[arg(long, default_value_t = 15.0)]
+    #[arg(long, default_value_t = 15.0, allow_hyphen_values = true)]
     pub line_duration: f64,
     /// Circle duration in s (the paper: 5).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, allow_hyphen_values = true)]
     pub circle_duration: f64,
     /// Trials of each case beyond the paper: the paper's update against the robust one, and
     /// the robust update with noise, a heavier platform and lower gains (at least 5).
@@ -167,28 +169,28 @@ pub struct AnalyzeArgs {
     #[arg(long, value_parser = parse_order, help = order_help())]
     pub order: Option<usize>,
     /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
-    #[arg(long, conflicts_with = "no_filter")]
+    #[arg(long, conflicts_with = "no_filter", allow_hyphen_values = true)]
     pub cutoff: Option<f64>,
     /// Analyse without the filter, whatever the scenario says.
     #[arg(long)]
     pub no_filter: bool,
     /// Lead δ, samples.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_lead, allow_hyphen_values = true)]
     pub lead: Option<usize>,
     /// Forgetting factor α.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub forgetting: Option<f64>,
     /// Gain g on the learning increment.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gain: Option<f64>,
     /// Scale the controller's learning gains Φ, Γ, Ψ (default 1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub gain_scale: f64,
     /// How long, s, a pose must last to count in the sustained-mass prediction.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub dwell: f64,
     /// Spacing, s, of the poses sampled along the reference.
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
     pub stride: f64,
 }
 
@@ -198,6 +200,13 @@ fn parse_jobs(text: &str) -> Result<usize, String> {
         Ok(n) if n >= 1 => Ok(n),
         _ => Err("must be a whole number of at least 1".into()),
     }
+}
+
+/// `analyze --lead`: a count of samples, so a negative or fractional lead gets its own words,
+/// not the integer parser's "invalid digit".
+fn parse_lead(text: &str) -> Result<usize, String> {
+    text.parse::<usize>()
+        .map_err(|_| "must be a whole number of samples, zero or more".into())
 }
 
 /// `analyze --order`: the bounds a scenario's `order` has (`ckcm::learning::MAX_ORDER`), so

@@ -186,13 +186,27 @@ fn bad_settings_are_named_and_nothing_is_written() {
         (&["--stride", "0"][..], "--stride = 0 s must be positive"),
         (
             &["--lead", "-1"][..],
-            "invalid value '-1' for '--lead <LEAD>'",
+            "invalid value '-1' for '--lead <LEAD>': must be a whole number of samples, zero or more",
         ),
-        // Five billion poses on the 5 s circle: refused before any is sampled.
+        (
+            &["--lead", "2.5"][..],
+            "invalid value '2.5' for '--lead <LEAD>': must be a whole number of samples, zero or more",
+        ),
+        // A negative exponent is a value too, which clap's own number test misses.
+        (
+            &["--dwell", "-1e-300"][..],
+            "--dwell = -1e-300 s must be zero or positive",
+        ),
+        // Five billion poses on the 5 s circle: refused before any is sampled, the stride
+        // shown short, not as 300 zeros.
         (
             &["--stride", "1e-9"][..],
-            "--stride = 0.000000001 s samples more than 1e5 poses along the 5 s reference; \
+            "--stride = 1e-9 s samples more than 1e5 poses along the 5 s reference; \
              use at least 5e-5 s",
+        ),
+        (
+            &["--stride", "1e-300"][..],
+            "--stride = 1e-300 s samples more than 1e5 poses",
         ),
     ] {
         let o = analyze(&scenario, &out, extra);

@@ -197,6 +197,9 @@ fn negative_times_are_values_not_options() {
     let (time, steps) = step_count(&fmu, "-0.02", "0");
     assert_eq!(time, [-0.02, -0.02 + 0.01, 0.0]);
     assert_eq!(steps, [0.0, 1.0, 2.0]);
+    // With a negative exponent too, which clap's own number test does not take for a number.
+    let (time, _) = step_count(&fmu, "-2e-2", "0");
+    assert_eq!(time, [-0.02, -0.02 + 0.01, 0.0]);
     let o = orchestrator()
         .arg("simulate")
         .arg(&fmu)

@@ -288,24 +288,26 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
     let duration = get("duration")?;
     if !(duration.is_finite() && duration > 0.0) {
         bail!(
-            "{}: FMU {:?} has duration = {duration} s; it must be positive",
+            "{}: FMU {:?} has duration = {} s; it must be positive",
             file.display(),
-            ctrl_spec.name
+            ctrl_spec.name,
+            Shown(duration)
         );
     }
     // A dwell of 0 is the frozen worst case; a stride of 0 samples nothing.
     if !(args.dwell.is_finite() && args.dwell >= 0.0) {
-        bail!("--dwell = {} s must be zero or positive", args.dwell);
+        bail!("--dwell = {} s must be zero or positive", Shown(args.dwell));
     }
     if !(args.stride.is_finite() && args.stride > 0.0) {
-        bail!("--stride = {} s must be positive", args.stride);
+        bail!("--stride = {} s must be positive", Shown(args.stride));
     }
     if duration / args.stride > ckcm::convergence::MAX_POSES {
         bail!(
-            "--stride = {} s samples more than {:e} poses along the {duration} s reference; \
+            "--stride = {} s samples more than {:e} poses along the {} s reference; \
              use at least {:e} s",
-            args.stride,
+            Shown(args.stride),
             ckcm::convergence::MAX_POSES,
+            Shown(duration),
             duration / ckcm::convergence::MAX_POSES
         );
     }
@@ -379,17 +381,26 @@ fn summary(name: &str, p: &Problem, a: &Analysis) -> String {
         s,
         "- Update: {}; h = {} s, zero-order hold.",
         describe_update(&p.update),
-        p.h
+        Shown(p.h)
     );
     let _ = writeln!(
         s,
         "- Feedback Kp {}, Ki {}, Kd {}; learning Φ {}, Γ {}, Ψ {}; viscous friction {} N·s/m.",
-        g.kp, g.ki, g.kd, g.phi, g.gamma, g.psi, p.plant.params.friction.viscous
+        Shown(g.kp),
+        Shown(g.ki),
+        Shown(g.kd),
+        Shown(g.phi),
+        Shown(g.gamma),
+        Shown(g.psi),
+        Shown(p.plant.params.friction.viscous)
     );
     let _ = writeln!(
         s,
-        "- Path: {:?}, {} s, poses every {} s; sustained = held for at least {} s.\n",
-        p.trajectory.kind, p.trajectory.duration, p.stride, p.dwell
+        "- Path: {}, {} s, poses every {} s; sustained = held for at least {} s.\n",
+        p.trajectory.kind.name(),
+        Shown(p.trajectory.duration),
+        Shown(p.stride),
+        Shown(p.dwell)
     );
     let _ = writeln!(s, "## Leg-space modes along the path\n");
     let _ = writeln!(
