@@ -628,7 +628,7 @@ impl Scenario {
         if !(h.is_finite() && h > 0.0) {
             return cx.err(
                 raw.step_size.span(),
-                format!("step_size = {h} must be positive"),
+                format!("step_size = {} must be positive", Shown(h)),
             );
         }
         let span_stop = raw.stop_time.span();
@@ -637,13 +637,11 @@ impl Scenario {
             return cx.err(
                 span_stop,
                 format!(
-                    "stop_time = {stop} must exceed start_time = {}",
-                    raw.start_time
+                    "stop_time = {} must exceed start_time = {}",
+                    Shown(stop),
+                    Shown(raw.start_time)
                 ),
             );
-        }
-        if let Some(why) = unresolved_step(raw.start_time, stop, h) {
-            return cx.err(raw.step_size.span(), format!("step_size: {why}"));
         }
         let steps_f = (stop - raw.start_time) / h;
         // Beyond 2^53 steps t_n = t_0 + n·h no longer tells samples apart.
@@ -656,14 +654,18 @@ impl Scenario {
                 ),
             );
         }
+        if let Some(why) = unresolved_step(raw.start_time, stop, h) {
+            return cx.err(raw.step_size.span(), format!("step_size: {why}"));
+        }
         // A trial of zero steps would run nothing and report an all-zero summary.
         if steps_f < 1.0 - 1e-6 {
             return cx.err(
                 raw.step_size.span(),
                 format!(
-                    "step_size = {h:?} s is longer than the trial (stop_time − start_time = {} s); \
+                    "step_size = {} s is longer than the trial (stop_time − start_time = {} s); \
                      a trial must hold at least one step",
-                    stop - raw.start_time
+                    Shown(h),
+                    Shown(stop - raw.start_time)
                 ),
             );
         }
@@ -672,8 +674,9 @@ impl Scenario {
             return cx.err(
                 span_stop.clone(),
                 format!(
-                    "stop_time − start_time = {} is not a whole number of steps of {h} s",
-                    stop - raw.start_time
+                    "stop_time − start_time = {} is not a whole number of steps of {} s",
+                    Shown(stop - raw.start_time),
+                    Shown(h)
                 ),
             );
         }
@@ -942,7 +945,7 @@ impl Scenario {
                 if !(rho.is_finite() && rho >= 0.0) {
                     return cx.err(
                         m.rho.span(),
-                        format!("metrics.rho = {rho} must be a non-negative number"),
+                        format!("metrics.rho = {} must be a non-negative number", Shown(rho)),
                     );
                 }
                 let pose = match &m.pose {
@@ -1075,7 +1078,7 @@ fn parse_update(
             x.span(),
             format!(
                 "memory.update.{name} = {} must be a finite number",
-                x.get_ref()
+                Shown(*x.get_ref())
             ),
         ),
     };
@@ -1680,6 +1683,39 @@ mod tests {
             .unwrap_err();
             assert_eq!(err.line, Some(2), "{err}");
             assert!(err.to_string().contains("at least one step"), "{err}");
+        }
+    }
+
+    /// A huge number in a refusal is shown with an exponent, not as 300 digits.
+    #[test]
+    fn huge_times_are_shown_short_in_their_errors() {
+        let fmu = "[[fmu]]\nname = \"a\"\npath = \"a.fmu\"\n";
+        for (head, says) in [
+            (
+                "step_size = -1e300\nstop_time = 1.0",
+                "step_size = -1e300 must be positive",
+            ),
+            (
+                "step_size = 0.1\nstop_time = -1e300",
+                "stop_time = -1e300 must exceed start_time = 0",
+            ),
+            (
+                "step_size = 1e300\nstop_time = 1.0",
+                "step_size = 1e300 s is longer than the trial",
+            ),
+            (
+                "step_size = 0.1\nstop_time = 1e300",
+                "(stop_time − start_time) / step_size = 1e301 steps is more than",
+            ),
+        ] {
+            let text = format!("{head}\n{fmu}");
+            let err = Scenario::parse(&text, Path::new("s.toml"), |_| {
+                ModelDescription::parse(MD).map_err(|e| e.to_string())
+            })
+            .unwrap_err()
+            .to_string();
+            assert!(err.contains(says), "{err}");
+            assert!(err.len() < 200, "{err}");
         }
     }
 

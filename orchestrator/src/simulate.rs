@@ -297,14 +297,14 @@ impl Grid {
         );
         ensure!(step.is_finite(), "step size {step_s} must be finite");
         ensure!(step > 0.0, "step size {step_s} s must be positive");
-        if let Some(why) = crate::scenario::unresolved_step(start, stop, step) {
-            bail!("{why}");
-        }
         let ratio = (stop - start) / step;
         ensure!(
             ratio <= MAX_STEPS as f64,
             "{ratio:.3e} steps of {step_s} s from {start_s} s to {stop_s} s are more than {MAX_STEPS}; use a larger --step-size"
         );
+        if let Some(why) = crate::scenario::unresolved_step(start, stop, step) {
+            bail!("{why}");
+        }
         let rounded = ratio.round();
         let (full_steps, partial) = if (ratio - rounded).abs() <= GRID_SLACK * rounded.max(1.0) {
             (rounded as usize, false)

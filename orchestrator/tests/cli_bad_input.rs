@@ -677,6 +677,15 @@ fn scenario_recording_a_trial_twice_or_measuring_the_wrong_quantity() {
             ),
         )
     };
+    // A weight beyond reason is named short, not with 300 digits.
+    let rho = write(
+        "rho",
+        "[metrics]\nreference = \"controller.length_ref\"\nlength = \"plant.length_true\"\n\
+         rho = -1e300\n",
+    );
+    run_fails(&rho, &out)
+        .says(&format!("{}:16:", rho.display()))
+        .says("metrics.rho = -1e300 must be a non-negative number");
     let lengths = with_pose("length");
     run_fails(&lengths, &out)
         .says(&format!("{}:16:", lengths.display()))
