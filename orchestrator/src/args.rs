@@ -132,7 +132,8 @@ pub struct PaperArgs {
     /// Output directory.
     #[arg(short, long, default_value = "results/paper")]
     pub out: PathBuf,
-    /// Trials per scheme (at least 5: the claims compare trials 0, 2, 3 and 4).
+    /// Trials per scheme (5 to 1000: the claims compare trials 0, 2, 3 and 4, and every
+    /// learning trial is recorded).
     #[arg(long, default_value_t = 10)]
     pub trials: usize,
     /// Line duration in s (the paper: 15; shorter for quick checks).

@@ -846,6 +846,20 @@ fn paper_names_its_bad_options_bad_fmus_and_a_folder_in_use() {
         &out,
     )
     .says("--line-duration 0 s is not usable: a trajectory lasts at least 0.01 s");
+    // Every learning trial is recorded: a count beyond reason is refused, not allocated (a
+    // list of 1e11 recorded trials aborted the process).
+    fails(
+        &[
+            "paper".as_ref(),
+            "--trials".as_ref(),
+            "100000000000".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        &out,
+    )
+    .says("--trials 100000000000 is too many")
+    .says("at most 1000");
     let missing = dir.path().join("nowhere");
     fails(
         &[

@@ -98,6 +98,10 @@ pub enum PaperError {
     Invalid(String),
 }
 
+/// Most `--trials`: every trial of the learning schemes is recorded, so the study's disk use
+/// grows with them (20 GB here), and the trial lists are built before anything runs.
+pub const MAX_TRIALS: usize = 1000;
+
 /// Runs all six cases, then writes the tables, figures and the report.
 pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     if opts.robust_trials < 5 {
@@ -109,6 +113,14 @@ pub fn run_paper(opts: &PaperOptions) -> Result<Vec<CaseResult>, PaperError> {
     if opts.trials < 5 {
         return Err(PaperError::Invalid(format!(
             "--trials {} is too few: the claims need at least 5 trials",
+            opts.trials
+        )));
+    }
+    if opts.trials > MAX_TRIALS {
+        return Err(PaperError::Invalid(format!(
+            "--trials {} is too many: the study records every trial of its two learning schemes \
+             on both paths (about 20 MB per trial at the paper's durations), so at most \
+             {MAX_TRIALS}; `run` studies longer campaigns of one scenario",
             opts.trials
         )));
     }
