@@ -693,6 +693,9 @@ impl Scenario {
         // it would fail too).
         let mut fmus = Vec::new();
         let mut mds = Vec::new();
+        // Per FMU, whether one of its parameters was refused: its settings then lack that
+        // value, and what they say it tracks is not what the file says.
+        let mut refused = Vec::new();
         for f in &raw.fmus {
             let name = f.name.get_ref();
             let opened = (|| {
@@ -721,8 +724,10 @@ impl Scenario {
             // Which key set each variable: a whole array and one of its elements (or two
             // names of one variable) would both apply, the later silently winning.
             let mut set_by: Vec<(VariableKey, &Spanned<String>)> = Vec::new();
+            let mut any_refused = false;
             for (key, value) in &f.parameters {
                 let Some(s) = cx.keep(parameter_settings(&cx, &md, key, value, trials)) else {
+                    any_refused = true;
                     continue;
                 };
                 for new in &s {
@@ -750,6 +755,7 @@ impl Scenario {
                 settings,
             });
             mds.push(md);
+            refused.push(any_refused);
         }
         if fmus.len() != raw.fmus.len() {
             cx.check()?;
@@ -977,7 +983,7 @@ impl Scenario {
                 let trajectory = match &m.trajectory {
                     Some(t) => {
                         let parsed = parse_trajectory(&cx, t)?;
-                        check_tracked(&cx, t, &parsed, &fmus, &mds)?;
+                        check_tracked(&cx, t, &parsed, &fmus, &mds, &refused)?;
                         Some(parsed)
                     }
                     // Without one, the path is the reference the CKCM controller tracks.
@@ -985,7 +991,9 @@ impl Scenario {
                         let mut tracked = fmus
                             .iter()
                             .zip(&mds)
-                            .filter_map(|(f, md)| tracked_trajectory(f, md));
+                            .zip(&refused)
+                            .filter(|(_, refused)| !**refused)
+                            .filter_map(|((f, md), _)| tracked_trajectory(f, md));
                         match tracked.next() {
                             Some(one) if tracked.all(|t| t == one) => Some(one),
                             _ => return cx.err(
@@ -1207,6 +1215,7 @@ fn check_tracked(
     measured: &ckcm::Trajectory,
     fmus: &[FmuSpec],
     mds: &[ModelDescription],
+    refused: &[bool],
 ) -> Result<(), ScenarioError> {
     let shown = |t: &ckcm::Trajectory| {
         format!(
@@ -1216,7 +1225,7 @@ fn check_tracked(
             Shown(t.home_height)
         )
     };
-    for (spec, md) in fmus.iter().zip(mds) {
+    for ((spec, md), _) in fmus.iter().zip(mds).zip(refused).filter(|(_, r)| !**r) {
         let Some(tracked) = tracked_trajectory(spec, md) else {
             continue;
         };

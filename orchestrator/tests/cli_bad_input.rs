@@ -829,6 +829,16 @@ fn the_path_error_is_measured_against_the_controllers_reference() {
              it, the reference of the scenario's HlcsController FMU is taken",
         );
     }
+    // A refused duration is the only error: the controller's declared default, which its
+    // settings then hold instead, is not a path it was asked to track.
+    let scenario = write(
+        "refused",
+        "trajectory = \"circle\"\nduration = 86400.5",
+        "kind = \"circle\", duration = 86400.5",
+    );
+    let failure = run_fails(&scenario, &out);
+    failure.says("\"duration\" = 86400.5 is above its declared max = 86400");
+    assert!(!failure.stderr.contains("tracks a"), "{}", failure.stderr);
 }
 
 #[test]
