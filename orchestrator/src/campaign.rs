@@ -36,8 +36,8 @@ pub use self::lock::{DirLock, LOCK_FILE};
 use self::writers::Writers;
 use crate::master::{FmuConsole, Master, MasterError, TrialSignals};
 use crate::output::{
-    CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, write_atomic,
-    write_recorded_rows, write_table_csv,
+    CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, push_csv_record,
+    write_atomic, write_recorded_rows,
 };
 use crate::scenario::{RecordFormat, Scenario, ScenarioError, as_run_text};
 
@@ -135,6 +135,14 @@ pub struct TrialSummary {
     /// writes as empty cells rather than zeros that read as a perfect trial.
     pub legs: Option<LegErrorMetrics>,
     pub path: Option<PathErrorStats>,
+}
+
+/// A row of `summary.csv` that could not be formatted (in memory, so in practice never).
+fn summary_error(dir: &Path, source: std::io::Error) -> CampaignError {
+    CampaignError::from(OutputError::Io {
+        path: dir.join("summary.csv"),
+        source,
+    })
 }
 
 /// Header of `summary.csv`.
@@ -980,16 +988,24 @@ pub fn run_campaign(
     // The memory the last trial run wrote (lanes), for memory.csv.
     let mut last_memory: Option<Vec<Vec<f64>>> = None;
     let abort = AtomicBool::new(false);
-    let header = summary_header();
-    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+    // summary.csv as text, each row formatted once as its trial ends: committing trial j
+    // writes the text up to j's row, a copy rather than every row formatted again (which made
+    // a campaign of 20,000 short trials quadratic: 510 s, most of it formatting).
+    let mut text = Vec::new();
+    push_csv_record(&mut text, summary_header()).map_err(|source| summary_error(dir, source))?;
+    for s in &summaries {
+        push_csv_record(&mut text, s.to_row()).map_err(|source| summary_error(dir, source))?;
+    }
+    let summary_text = std::sync::Mutex::new(text);
     // Trial j is committed (summary.csv, progress.toml, the previous memory file removed),
     // in trial order, only once all its files are durable. A writer thread writes a trial's
     // files while the next trials run and commits it after the trial before (see
     // `writers`); a kill therefore never leaves progress.toml claiming a trial whose
     // recording or memory is missing.
-    let commit = |j: usize, summaries: &[TrialSummary]| {
-        let rows: Vec<Vec<String>> = summaries[..=j].iter().map(TrialSummary::to_row).collect();
-        write_table_csv(&dir.join("summary.csv"), &header_refs, &rows)?;
+    let commit = |j: usize, end: usize| {
+        let text = summary_text.lock().map(|t| t[..end].to_vec());
+        let text = text.unwrap_or_else(|poisoned| poisoned.into_inner()[..end].to_vec());
+        write_atomic(&dir.join("summary.csv"), |w| w.write_all(&text))?;
         crash.tick();
         let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", j + 1);
         write_atomic(&progress_file, |w| w.write_all(progress.as_bytes()))?;
@@ -1090,7 +1106,15 @@ pub fn run_campaign(
                 }
                 (None, None) => unreachable!("a trial ran on a lane or on the master"),
             };
-            let committed = summaries.clone();
+            let end = {
+                let mut text = summary_text.lock().unwrap_or_else(|p| p.into_inner());
+                let row = summaries
+                    .last()
+                    .map(TrialSummary::to_row)
+                    .unwrap_or_default();
+                push_csv_record(&mut text, row).map_err(|source| summary_error(dir, source))?;
+                text.len()
+            };
             let crash = &crash;
             writers.spawn(
                 scope,
@@ -1103,7 +1127,7 @@ pub fn run_campaign(
                     crash.tick();
                     Ok(full)
                 },
-                move || commit(k, &committed),
+                move || commit(k, end),
             )?;
         }
         // memory.csv is formatted and synced while the last writers finish, and put in place

@@ -16,8 +16,8 @@ use std::path::PathBuf;
 
 pub use self::atomic::{Prepared, prepare_atomic, write_atomic};
 pub use self::csv::{
-    CsvExporter, CsvWithText, Exporter, read_recording_csv, write_recorded_rows, write_recording,
-    write_table_csv,
+    CsvExporter, CsvWithText, Exporter, push_csv_record, read_recording_csv, write_recorded_rows,
+    write_recording, write_table_csv,
 };
 pub use self::parquet::ParquetExporter;
 pub use self::recording::{RecordedRows, Recording};
