@@ -980,20 +980,30 @@ impl Scenario {
                         Some(port)
                     }
                 };
+                // The path is the one tracked by the controller whose leg errors are
+                // measured (a scenario may hold two loops); when those come from another
+                // model, by every HlcsController in the scenario.
+                let measured = match &error {
+                    LegError::Output(p) => p.fmu,
+                    LegError::Difference { reference, .. } => reference.fmu,
+                };
+                let trackers: Vec<usize> = if mds[measured].model_name == "HlcsController" {
+                    vec![measured]
+                } else {
+                    (0..fmus.len()).collect()
+                };
+                let trackers: Vec<usize> = trackers.into_iter().filter(|&i| !refused[i]).collect();
                 let trajectory = match &m.trajectory {
                     Some(t) => {
                         let parsed = parse_trajectory(&cx, t)?;
-                        check_tracked(&cx, t, &parsed, &fmus, &mds, &refused)?;
+                        check_tracked(&cx, t, &parsed, &fmus, &mds, &trackers)?;
                         Some(parsed)
                     }
                     // Without one, the path is the reference the CKCM controller tracks.
                     None if pose.is_some() => {
-                        let mut tracked = fmus
+                        let mut tracked = trackers
                             .iter()
-                            .zip(&mds)
-                            .zip(&refused)
-                            .filter(|(_, refused)| !**refused)
-                            .filter_map(|((f, md), _)| tracked_trajectory(f, md));
+                            .filter_map(|&i| tracked_trajectory(&fmus[i], &mds[i]));
                         match tracked.next() {
                             Some(one) if tracked.all(|t| t == one) => Some(one),
                             _ => return cx.err(
@@ -1207,15 +1217,16 @@ fn parse_trajectory(
     })
 }
 
-/// `metrics.trajectory` must be the path a CKCM controller in the scenario tracks: the two
-/// are written apart, and a path error measured against another path looks plausible.
+/// `metrics.trajectory` must be the path each of `trackers` (CKCM controllers among them)
+/// tracks: the two are written apart, and a path error measured against another path looks
+/// plausible.
 fn check_tracked(
     cx: &Ctx<'_>,
     t: &Spanned<RawTrajectory>,
     measured: &ckcm::Trajectory,
     fmus: &[FmuSpec],
     mds: &[ModelDescription],
-    refused: &[bool],
+    trackers: &[usize],
 ) -> Result<(), ScenarioError> {
     let shown = |t: &ckcm::Trajectory| {
         format!(
@@ -1225,8 +1236,9 @@ fn check_tracked(
             Shown(t.home_height)
         )
     };
-    for ((spec, md), _) in fmus.iter().zip(mds).zip(refused).filter(|(_, r)| !**r) {
-        let Some(tracked) = tracked_trajectory(spec, md) else {
+    for &i in trackers {
+        let spec = &fmus[i];
+        let Some(tracked) = tracked_trajectory(spec, &mds[i]) else {
             continue;
         };
         let same = tracked.kind == measured.kind

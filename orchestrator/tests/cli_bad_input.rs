@@ -841,6 +841,56 @@ fn the_path_error_is_measured_against_the_controllers_reference() {
     assert!(!failure.stderr.contains("tracks a"), "{}", failure.stderr);
 }
 
+/// Two loops in one scenario, each controller tracking its own path: the path error is
+/// checked against the controller whose leg errors are measured, not against the other.
+#[test]
+fn with_two_loops_the_measured_controllers_path_is_the_one_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let (controller, plant) = (built_fmu("HlcsController"), built_fmu("CkcmPlant"));
+    let (controller, plant) = (controller.to_str().unwrap(), plant.to_str().unwrap());
+    let mut loops = String::new();
+    for (c, p, path) in [("c1", "p1", "line"), ("c2", "p2", "circle")] {
+        loops += &format!(
+            "[[fmu]]\nname = \"{c}\"\npath = {controller:?}\n[fmu.parameters]\n\
+             trajectory = \"{path}\"\nduration = 5.0\n\n\
+             [[fmu]]\nname = \"{p}\"\npath = {plant:?}\n\n"
+        );
+        for (from, to) in [
+            (format!("{p}.length"), format!("{c}.length")),
+            (format!("{p}.velocity"), format!("{c}.velocity")),
+            (format!("{c}.force"), format!("{p}.force")),
+        ] {
+            loops += &format!("[[connection]]\nfrom = \"{from}\"\nto = \"{to}\"\n\n");
+        }
+    }
+    let write = |stem: &str, measured: &str| {
+        let path = dir.path().join(format!("{stem}.toml"));
+        let (c, p) = (measured, measured.replace('c', "p"));
+        std::fs::write(
+            &path,
+            format!(
+                "step_size = 0.001\ntrials = 1\nstop_time = 0.01\n\n{loops}\
+                 [metrics]\nreference = \"{c}.length_ref\"\nlength = \"{p}.length_true\"\n\
+                 pose = \"{p}.pose\"\ntrajectory = {{ kind = \"line\", duration = 5.0 }}\n"
+            ),
+        )
+        .unwrap();
+        path
+    };
+    orchestrator()
+        .arg("run")
+        .arg(write("first", "c1"))
+        .arg("--out")
+        .arg(dir.path().join("first_out"))
+        .assert()
+        .success();
+    let second = write("second", "c2");
+    run_fails(&second, &dir.path().join("second_out")).says(
+        "metrics.trajectory is a line of 5 s at home height 0.5 m, but FMU \"c2\" tracks a \
+         circle of 5 s",
+    );
+}
+
 #[test]
 fn paper_names_its_bad_options_bad_fmus_and_a_folder_in_use() {
     let dir = tempfile::tempdir().unwrap();
