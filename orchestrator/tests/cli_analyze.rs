@@ -356,3 +356,31 @@ fn a_parameter_renamed_in_the_xml_is_an_error_not_a_default() {
     );
     assert!(!out.exists());
 }
+
+/// The analysis models one loop: with a second controller and plant in the scenario it
+/// analyses the first pair and says so, naming the ones it leaves out.
+#[test]
+fn a_second_loop_is_named_as_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = circle(dir.path(), None);
+    let mut text = std::fs::read_to_string(&scenario).unwrap();
+    text += &format!(
+        "\n[[fmu]]\nname = \"c2\"\npath = {:?}\n\n[[fmu]]\nname = \"p2\"\npath = {:?}\n",
+        built_fmu("HlcsController"),
+        built_fmu("CkcmPlant")
+    );
+    std::fs::write(&scenario, text).unwrap();
+    let o = analyze(&scenario, &dir.path().join("out"), &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    for (model, first, other) in [
+        ("CkcmPlant", "plant", "p2"),
+        ("HlcsController", "controller", "c2"),
+    ] {
+        let says = format!(
+            "the analysis models one loop: of the {model} FMUs it takes the first, \
+             \"{first}\", not \"{other}\""
+        );
+        assert!(stderr.contains(&says), "{stderr}");
+    }
+}

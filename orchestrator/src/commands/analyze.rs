@@ -200,24 +200,36 @@ fn nominal_params(values: &BTreeMap<String, f64>) -> Result<Params> {
     Ok(p)
 }
 
-/// Finds the FMU whose model is `model` (the analysis models the CKCM FMUs only).
+/// Finds the FMU whose model is `model` (the analysis models the CKCM FMUs only). Of
+/// several (a scenario of two loops), the first is analysed, and the user is told which.
 fn find<'a>(
     scenario: &'a Scenario,
     fmus: &'a [Fmu],
     model: &str,
 ) -> Result<(&'a FmuSpec, &'a ModelDescription)> {
-    scenario
+    let mut all = scenario
         .fmus
         .iter()
         .zip(fmus)
         .map(|(s, f)| (s, f.model_description()))
-        .find(|(_, md)| md.model_name == model)
-        .with_context(|| {
-            format!(
-                "{}: no {model} FMU; the analysis models the CkcmPlant and HlcsController FMUs",
-                scenario.source.display()
-            )
-        })
+        .filter(|(_, md)| md.model_name == model);
+    let first = all.next().with_context(|| {
+        format!(
+            "{}: no {model} FMU; the analysis models the CkcmPlant and HlcsController FMUs",
+            scenario.source.display()
+        )
+    })?;
+    let others: Vec<String> = all.map(|(s, _)| format!("{:?}", s.name)).collect();
+    if !others.is_empty() {
+        orchestrator::console!(
+            "warning: {}: the analysis models one loop: of the {model} FMUs it takes the \
+             first, {:?}, not {}",
+            scenario.source.display(),
+            first.0.name,
+            others.join(", ")
+        );
+    }
+    Ok(first)
 }
 
 fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Problem> {
