@@ -9,11 +9,10 @@
 
 mod common;
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{built_fmu, orchestrator, repackage, workspace_root};
+use common::{archive_entry, built_fmu, orchestrator, repackage, workspace_root};
 use object::{Object, ObjectSymbol};
 
 /// The FMUs: model identifier and name of the Linux binary inside the archive.
@@ -38,18 +37,6 @@ const SYSTEM_DLLS: [&str; 9] = [
 /// Values of the Wine and Linux runs agree to this, relative to their scale (see
 /// [`assert_csv_close`]).
 const REL_TOL: f64 = 1e-12;
-
-/// The bytes of `name` inside the archive `fmu`.
-fn archive_entry(fmu: &Path, name: &str) -> Vec<u8> {
-    let file = std::fs::File::open(fmu).unwrap_or_else(|e| panic!("{}: {e}", fmu.display()));
-    let mut archive = zip::ZipArchive::new(file).unwrap();
-    let mut entry = archive
-        .by_name(name)
-        .unwrap_or_else(|e| panic!("{}: no {name} inside: {e}", fmu.display()));
-    let mut bytes = Vec::new();
-    entry.read_to_end(&mut bytes).unwrap();
-    bytes
-}
 
 #[test]
 fn win64_dlls_import_only_system_dlls_and_export_every_fmi_function() {

@@ -50,6 +50,18 @@ pub fn workspace_root() -> PathBuf {
         .to_path_buf()
 }
 
+/// The bytes of `name` inside the archive `fmu`.
+pub fn archive_entry(fmu: &Path, name: &str) -> Vec<u8> {
+    let file = std::fs::File::open(fmu).unwrap_or_else(|e| panic!("{}: {e}", fmu.display()));
+    let mut archive = zip::ZipArchive::new(file).unwrap();
+    let mut entry = archive
+        .by_name(name)
+        .unwrap_or_else(|e| panic!("{}: no {name} inside: {e}", fmu.display()));
+    let mut bytes = Vec::new();
+    entry.read_to_end(&mut bytes).unwrap();
+    bytes
+}
+
 /// A command running the `orchestrator` binary built for these tests.
 pub fn orchestrator() -> assert_cmd::Command {
     assert_cmd::Command::new(env!("CARGO_BIN_EXE_orchestrator"))

@@ -1,0 +1,71 @@
+//! The FMU binaries do not depend on where the checkout lies: a campaign's fingerprint holds
+//! its FMU files' bytes, so two clones of one commit must build the same FMUs for
+//! `run --resume` and `sweep merge` to accept each other's results. Debug info once made
+//! them differ (the checkout's paths fed LLVM's names for promoted symbols).
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::{archive_entry, built_fmu, workspace_root};
+
+/// Copies the tracked files of the checkout, as they are now, below `to`.
+fn copy_checkout(to: &Path) {
+    let root = workspace_root();
+    let listed = Command::new("git")
+        .args(["ls-files", "-z"])
+        .current_dir(&root)
+        .output()
+        .expect("git runs");
+    assert!(listed.status.success(), "git ls-files failed");
+    for name in listed.stdout.split(|&b| b == 0).filter(|n| !n.is_empty()) {
+        let name = std::str::from_utf8(name).expect("tracked paths are UTF-8");
+        let (from, dest) = (root.join(name), to.join(name));
+        // A tracked file deleted in the working tree is not part of the build.
+        if !from.exists() {
+            continue;
+        }
+        std::fs::create_dir_all(dest.parent().unwrap()).unwrap();
+        std::fs::copy(&from, &dest).unwrap_or_else(|e| panic!("{}: {e}", from.display()));
+    }
+}
+
+/// Builds the plant in another folder, with a target directory of its own, and compares its
+/// library with the one packaged in `CkcmPlant.fmu` (several minutes: every dependency is
+/// compiled again).
+#[test]
+fn the_plant_builds_the_same_library_in_another_folder() {
+    let packaged = archive_entry(&built_fmu("CkcmPlant"), "binaries/linux64/CkcmPlant.so");
+    let dir = tempfile::tempdir().unwrap();
+    let checkout = dir.path().join("elsewhere");
+    copy_checkout(&checkout);
+    let target = dir.path().join("target");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let status = Command::new(cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--offline",
+            "-p",
+            "fmu-plant",
+        ])
+        .current_dir(&checkout)
+        .env("CARGO_TARGET_DIR", &target)
+        .status()
+        .expect("cargo runs");
+    assert!(
+        status.success(),
+        "the build in {} failed",
+        checkout.display()
+    );
+    let built = std::fs::read(target.join("release/libckcm_plant.so")).unwrap();
+    assert!(
+        built == packaged,
+        "the plant built in {} differs from the packaged one ({} and {} bytes)",
+        checkout.display(),
+        built.len(),
+        packaged.len()
+    );
+}
