@@ -24,6 +24,7 @@ mod writers;
 
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::PoisonError;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use ckcm::metrics::{LegErrorMetrics, PathErrorStats, leg_error_metrics, path_error};
@@ -1003,8 +1004,7 @@ pub fn run_campaign(
     // `writers`); a kill therefore never leaves progress.toml claiming a trial whose
     // recording or memory is missing.
     let commit = |j: usize, end: usize| {
-        let text = summary_text.lock().map(|t| t[..end].to_vec());
-        let text = text.unwrap_or_else(|poisoned| poisoned.into_inner()[..end].to_vec());
+        let text = summary_text.lock().unwrap_or_else(PoisonError::into_inner)[..end].to_vec();
         write_atomic(&dir.join("summary.csv"), |w| w.write_all(&text))?;
         crash.tick();
         let progress = format!("completed = {}\nfingerprint = \"{fp}\"\n", j + 1);
@@ -1107,7 +1107,7 @@ pub fn run_campaign(
                 (None, None) => unreachable!("a trial ran on a lane or on the master"),
             };
             let end = {
-                let mut text = summary_text.lock().unwrap_or_else(|p| p.into_inner());
+                let mut text = summary_text.lock().unwrap_or_else(PoisonError::into_inner);
                 let row = summaries
                     .last()
                     .map(TrialSummary::to_row)

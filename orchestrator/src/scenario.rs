@@ -987,12 +987,10 @@ impl Scenario {
                     LegError::Output(p) => p.fmu,
                     LegError::Difference { reference, .. } => reference.fmu,
                 };
-                let trackers: Vec<usize> = if mds[measured].model_name == "HlcsController" {
-                    vec![measured]
-                } else {
-                    (0..fmus.len()).collect()
-                };
-                let trackers: Vec<usize> = trackers.into_iter().filter(|&i| !refused[i]).collect();
+                let only_measured = mds[measured].model_name == "HlcsController";
+                let trackers: Vec<usize> = (0..fmus.len())
+                    .filter(|&i| !refused[i] && (!only_measured || i == measured))
+                    .collect();
                 let trajectory = match &m.trajectory {
                     Some(t) => {
                         let parsed = parse_trajectory(&cx, t)?;
@@ -1060,6 +1058,14 @@ impl Scenario {
     pub fn time(&self, n: usize) -> f64 {
         self.start_time + n as f64 * self.step_size
     }
+}
+
+/// The path an HlcsController's `trajectory` item `item` names, looked up by name in its
+/// XML (a renumbered item needs no edit); `None` for `external` or an unknown item.
+pub fn trajectory_item(md: &ModelDescription, item: i32) -> Option<TrajectoryKind> {
+    TrajectoryKind::ALL
+        .into_iter()
+        .find(|k| md.enumeration_item("trajectory", k.name()) == Some(item))
 }
 
 /// A `[memory.update]` in words, for the analysis' summary and the master's errors.
@@ -1286,9 +1292,7 @@ fn tracked_trajectory(spec: &FmuSpec, md: &ModelDescription) -> Option<ckcm::Tra
     let Value::Integer(item) = value("trajectory")? else {
         return None;
     };
-    let kind = TrajectoryKind::ALL
-        .into_iter()
-        .find(|k| md.enumeration_item("trajectory", k.name()) == Some(item))?;
+    let kind = trajectory_item(md, item)?;
     Some(ckcm::Trajectory {
         kind,
         duration: real("duration")?,
@@ -1761,7 +1765,8 @@ mod tests {
             ),
             "{err}"
         );
-        assert!(parse("start_time = 1e13\nstop_time = 10000000000001.0").is_err());
+        let err = parse("start_time = 1e13\nstop_time = 10000000000001.0").unwrap_err();
+        assert!(err.to_string().contains("cannot advance time"), "{err}");
         let sc = parse("start_time = 1e12\nstop_time = 1000000000001.0").unwrap();
         assert!((1..sc.steps).all(|n| sc.time(n) > sc.time(n - 1)));
     }

@@ -14,7 +14,7 @@ use fmi2_import::Fmu;
 use fmi2_md::{ModelDescription, Shown, VariableKind};
 use orchestrator::output::convergence_plot::{ModeCurves, convergence_factor};
 use orchestrator::output::{write_atomic, write_table_csv};
-use orchestrator::scenario::{FmuSpec, Scenario, Value, describe_update};
+use orchestrator::scenario::{FmuSpec, Scenario, Value, describe_update, trajectory_item};
 
 use crate::args::AnalyzeArgs;
 
@@ -283,12 +283,8 @@ fn problem(args: &AnalyzeArgs, scenario: &Scenario, fmus: &[Fmu]) -> Result<Prob
             );
         }
     }
-    // Items by name from the controller's XML, so a renumbered item needs no edit here.
     let trajectory = get("trajectory")? as i32;
-    let Some(kind) = TrajectoryKind::ALL
-        .into_iter()
-        .find(|k| ctrl_md.enumeration_item("trajectory", k.name()) == Some(trajectory))
-    else {
+    let Some(kind) = trajectory_item(ctrl_md, trajectory) else {
         bail!(
             "{}: FMU {:?} has trajectory = {trajectory}: the analysis needs the controller's \
              own reference ({}), not an external one",
