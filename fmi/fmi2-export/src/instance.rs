@@ -682,6 +682,9 @@ impl<M: Model> Instance<M> {
             }
         }
         let end = cp + h;
+        if end == cp {
+            return Err(step_stalled(cp, h));
+        }
         if let Some(stop) = self.glue.stop_time {
             if end > stop + time_tolerance(stop) {
                 return Err(step_refused(format_args!(
@@ -747,6 +750,21 @@ impl<M: Model> Instance<M> {
 #[inline(never)]
 fn step_refused(message: std::fmt::Arguments<'_>) -> Failure {
     Failure::error(message.to_string())
+}
+
+/// The error of a step too small to move the time off `cp`: the model would integrate by
+/// `h` while the FMU's time, and so every later communication point, stood still.
+#[cold]
+#[inline(never)]
+fn step_stalled(cp: f64, h: f64) -> Failure {
+    // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
+    let spacing = f64::from_bits(cp.abs().to_bits() + 1) - cp.abs();
+    Failure::error(format!(
+        "a step of {} from {} does not advance time: neighbouring times there are {} apart",
+        Shown(h),
+        Shown(cp),
+        Shown(spacing)
+    ))
 }
 
 #[cfg(test)]

@@ -30,6 +30,39 @@ fn step_size_must_be_positive_and_finite() {
     );
 }
 
+/// Near t = 1e17 doubles are 16 apart, so t + 0.001 = t: such a step would integrate the
+/// model while the time stood still, and is refused. A step that does move the time is
+/// taken there.
+#[test]
+fn a_step_that_cannot_advance_time_is_refused() {
+    let fmu = Fmu::new("stall");
+    assert_eq!(fmu.setup(1e17, None), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    let steps = fmu.get_integer(&[vr::STEP_COUNT]).1;
+    assert_eq!(fmu.do_step(1e17, 0.001), Status::Error);
+    assert!(
+        fmu.log.contains(
+            "fmi2DoStep: a step of 0.001 from 1e17 does not advance time: \
+             neighbouring times there are 16 apart"
+        ),
+        "{:?}",
+        fmu.log.messages()
+    );
+    assert_eq!(
+        fmu.get_integer(&[vr::STEP_COUNT]).1,
+        steps,
+        "no step was taken"
+    );
+
+    let fmu = Fmu::new("stall-ok");
+    assert_eq!(fmu.setup(1e17, None), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    assert_eq!(fmu.do_step(1e17, 32.0), Status::Ok);
+    assert_eq!(fmu.last_successful_time(), (Status::Ok, 1e17 + 32.0));
+}
+
 #[test]
 fn communication_point_must_match_the_fmu_time() {
     let fmu = Fmu::initialized("cp");
