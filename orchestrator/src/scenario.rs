@@ -410,6 +410,12 @@ pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 /// another encoding is named as such (UTF-16), or by the line of its first bad byte.
 pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
+    if path.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            folder_given_for_file(path),
+        ));
+    }
     let mut bytes = Vec::new();
     std::fs::File::open(path)?
         .take(MAX_TEXT_BYTES + 1)
@@ -438,6 +444,28 @@ pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
         };
         std::io::Error::new(std::io::ErrorKind::InvalidData, message)
     })
+}
+
+/// Why a folder cannot be read as a scenario or sweep file, with the command that continues
+/// the campaign or sweep it holds. Checked before opening: Linux opens a folder and fails
+/// on the read ("Is a directory"), Windows refuses it as "Access is denied".
+fn folder_given_for_file(dir: &Path) -> String {
+    let shown = dir.display();
+    let scenario = dir.join("scenario.toml");
+    if scenario.is_file() && dir.join("progress.toml").is_file() {
+        format!(
+            "it is a campaign's folder, not a scenario file; `orchestrator run {} --out \
+             {shown} --resume` continues its campaign",
+            scenario.display()
+        )
+    } else if dir.join("sweep.toml").is_file() {
+        format!(
+            "it is a sweep's folder, not a sweep file; `orchestrator sweep SWEEP.toml --out \
+             {shown} --resume`, with the sweep file it began with, continues its sweep"
+        )
+    } else {
+        "it is a folder, not a file".to_owned()
+    }
 }
 
 /// Line (1-based) of a byte offset.

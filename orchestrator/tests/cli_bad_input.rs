@@ -434,6 +434,56 @@ fn a_scenario_not_in_utf8_is_named_with_its_encoding() {
         .success();
 }
 
+/// A folder given where a scenario or sweep file belongs (a campaign's `--out`, as a user
+/// resuming it might) is called a folder, with the command that continues what it holds;
+/// that command works. Before, it said "Is a directory (os error 21)".
+#[test]
+fn a_folder_given_as_the_scenario_names_the_command_that_resumes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = scenario_for(dir.path(), "unit", &foreign_fmu(dir.path()));
+    let campaign = dir.path().join("campaign");
+    orchestrator()
+        .args([
+            "run".as_ref(),
+            scenario.as_os_str(),
+            "--trials".as_ref(),
+            "2".as_ref(),
+        ])
+        .arg("--out")
+        .arg(&campaign)
+        .assert()
+        .success();
+    let out = dir.path().join("out");
+    let shown = campaign.display();
+    run_fails(&campaign, &out).says(&format!(
+        "{shown}: cannot read the scenario: it is a campaign's folder, not a scenario file; \
+         `orchestrator run {shown}/scenario.toml --out {shown} --resume` continues its campaign"
+    ));
+    orchestrator()
+        .arg("run")
+        .arg(campaign.join("scenario.toml"))
+        .args(["--out".as_ref(), campaign.as_os_str(), "--resume".as_ref()])
+        .args(["--trials", "3"])
+        .assert()
+        .success();
+    assert!(campaign.join("memory/after_trial_002.f64").exists());
+
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    run_fails(&empty, &out).says(&format!(
+        "{}: cannot read the scenario: it is a folder, not a file",
+        empty.display()
+    ));
+    let swept = dir.path().join("swept");
+    std::fs::create_dir(&swept).unwrap();
+    std::fs::write(swept.join("sweep.toml"), "").unwrap();
+    fails(&["sweep".as_ref(), swept.as_os_str()], &out).says(&format!(
+        "it is a sweep's folder, not a sweep file; `orchestrator sweep SWEEP.toml --out {} \
+         --resume`, with the sweep file it began with, continues its sweep",
+        swept.display()
+    ));
+}
+
 #[test]
 fn simulate_setting_an_unknown_variable() {
     let dir = tempfile::tempdir().unwrap();
