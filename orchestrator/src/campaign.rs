@@ -406,6 +406,14 @@ fn read_progress(file: &Path) -> Result<Progress, String> {
     toml::from_str(&text).map_err(|e| format!("progress.toml: {e}"))
 }
 
+/// How many trials the campaign in `dir` has completed and kept, by its `progress.toml`;
+/// `None` if it holds no readable one.
+pub fn completed_trials(dir: &Path) -> Option<usize> {
+    read_progress(&dir.join("progress.toml"))
+        .ok()
+        .map(|p| p.completed)
+}
+
 impl Fingerprints {
     fn matches(&self, p: &Progress) -> bool {
         p.fingerprint == self.current || p.fingerprint == self.earlier

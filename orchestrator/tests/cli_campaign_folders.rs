@@ -279,6 +279,41 @@ fn a_corrupted_memory_file_is_refused_on_resume() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// A write that fails part way (here `memory.csv`, blocked by a folder of that name, as a
+/// full disk would fail it) stops the run naming the file, the trials kept and the command
+/// that continues; once the write can succeed, that command ends the campaign with the
+/// very files of an uninterrupted run.
+#[test]
+fn a_failed_write_names_the_trials_kept_and_the_resume_that_finishes_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let whole = tmp.path().join("whole");
+    assert!(run(&s, &whole, &[]).status.success());
+
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let blocker = out.join("memory.csv");
+    std::fs::remove_file(&blocker).unwrap();
+    std::fs::create_dir_all(blocker.join("in-the-way")).unwrap();
+    let o = run(&s, &out, &["--resume"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains(&blocker.display().to_string()), "{err}");
+    assert!(
+        err.contains(&format!(
+            "trials 0–2 are kept in {shown}; once the write can succeed (free disk space, for \
+             one), `orchestrator run {} --out {shown} --resume` continues the campaign",
+            s.display(),
+            shown = out.display()
+        )),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&blocker).unwrap();
+    let o = run(&s, &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&whole, &out, "after the resumed write");
+}
+
 /// `--resume` continues only the campaign of the same scenario (and FMUs): a folder started
 /// from another scenario text is refused, naming the folder, and left as it was.
 #[test]

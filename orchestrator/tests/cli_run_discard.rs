@@ -145,6 +145,12 @@ variables = ["osc.x", "osc.v"]
     assert!(err.contains("trial 1, t = "), "{err}");
     assert!(err.contains("FMU \"osc\" returned osc.x = "), "{err}");
     assert!(err.contains("not finite"), "{err}");
+    // The trials kept are named; no resume is suggested, since it would meet the same step.
+    assert!(
+        err.contains(&format!("\ntrial 0 is kept in {}\n", out.display())),
+        "{err}"
+    );
+    assert!(!err.contains("--resume"), "{err}");
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(summary.lines().count(), 2, "trial 0 only: {summary}");
     assert!(out.join("trials/trial_000.csv").exists());

@@ -1,9 +1,9 @@
 //! `run SCENARIO.toml`: every trial of a scenario, persisted after each trial.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use orchestrator::campaign::{CampaignOptions, run_campaign};
+use orchestrator::campaign::{CampaignError, CampaignOptions, completed_trials, run_campaign};
 use orchestrator::scenario::Scenario;
 
 use crate::args::RunArgs;
@@ -46,7 +46,8 @@ pub fn run(args: RunArgs) -> Result<()> {
             .jobs
             .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
     };
-    let summaries = run_campaign(&scenario, &text, fmus, &opts)?;
+    let summaries = run_campaign(&scenario, &text, fmus, &opts)
+        .map_err(|e| kept_trials_told(e, &args.scenario, &out_dir))?;
     for s in &summaries {
         match s.legs {
             Some(legs) => orchestrator::console!(
@@ -63,4 +64,49 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     orchestrator::console!("results in {}", out_dir.display());
     Ok(())
+}
+
+/// A campaign stopped part way by an FMU or a failed write, with the trials it keeps: a
+/// user whose disk filled up learns that the trials run so far are safe, and how to go on
+/// once there is room. An FMU's failure is not followed by that hint, since the resumed
+/// trial would meet it again.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+struct StoppedPartWay {
+    message: String,
+    source: CampaignError,
+}
+
+fn kept_trials_told(e: CampaignError, scenario: &Path, out: &Path) -> anyhow::Error {
+    let write_failed = matches!(e, CampaignError::Output(_));
+    let kept = match completed_trials(out) {
+        Some(n) if n > 0 && (write_failed || matches!(e, CampaignError::Master(_))) => n,
+        _ => return e.into(),
+    };
+    // The whole chain in one message, as `main` shows an error, so that the kept trials come
+    // after the reason (`main` skips causes the message already holds).
+    let mut message = e.to_string();
+    let mut cause = std::error::Error::source(&e);
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+        cause = c.source();
+    }
+    let trials = match kept {
+        1 => "trial 0 is".to_owned(),
+        n => format!("trials 0–{} are", n - 1),
+    };
+    message.push_str(&format!("\n{trials} kept in {}", out.display()));
+    if write_failed {
+        message.push_str(&format!(
+            "; once the write can succeed (free disk space, for one), `orchestrator run {} \
+             --out {} --resume` continues the campaign",
+            scenario.display(),
+            out.display()
+        ));
+    }
+    StoppedPartWay { message, source: e }.into()
 }
