@@ -20,6 +20,16 @@ fn main() -> ExitCode {
         args::Command::Paper(_) => "; `paper --resume` continues the study",
         _ => "",
     };
+    // `run` names its kept trials itself (commands/run.rs), for any failed write.
+    let study = match cli.command {
+        args::Command::Sweep(_) => {
+            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep")
+        }
+        args::Command::Paper(_) => {
+            Some("`paper --resume`, with the same options, continues the study")
+        }
+        _ => None,
+    };
     // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
     // exiting. Result files need nothing: each is written to a temporary file and renamed,
     // and `--resume` removes temporaries an interrupted run left behind. Without a handler
@@ -40,10 +50,28 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            orchestrator::console!("error: {}", describe(&e));
+            let hint = study
+                .filter(|_| disk_full(&e))
+                .map(|resume| {
+                    format!(
+                        "\nthe disk is full: what finished is kept, and once there is room {resume}"
+                    )
+                })
+                .unwrap_or_default();
+            orchestrator::console!("error: {}{hint}", describe(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// Whether `e` comes from a full disk (or a full quota, which Linux reports the same way):
+/// a long study stopped by it keeps what it finished, and a resume goes on once there is room.
+fn disk_full(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::StorageFull)
+    })
 }
 
 /// The error and its causes, skipping causes whose text the message already contains
@@ -58,4 +86,29 @@ fn describe(e: &anyhow::Error) -> String {
         }
     }
     msg
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ENOSPC is found however deep the write's error lies (a sweep wraps the campaign's);
+    /// other I/O errors, such as a refused permission, are not taken for it.
+    #[test]
+    fn a_full_disk_is_found_anywhere_in_the_chain() {
+        // ENOSPC, as a write to a full disk returns it on Linux.
+        #[cfg(target_os = "linux")]
+        let full = std::io::Error::from_raw_os_error(28);
+        #[cfg(not(target_os = "linux"))]
+        let full = std::io::Error::from(std::io::ErrorKind::StorageFull);
+        let e = anyhow::Error::new(full)
+            .context("I/O error on x.csv")
+            .context("case 3");
+        assert!(disk_full(&e));
+        let denied = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        assert!(!disk_full(
+            &anyhow::Error::new(denied).context("I/O error on x.csv")
+        ));
+        assert!(!disk_full(&anyhow::anyhow!("No space left on device")));
+    }
 }
