@@ -491,6 +491,7 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
     } else {
         message.to_string()
     };
+    message = in_plain_words(message);
     // `path = "C:\Users\me\X.fmu"`: TOML reads `\U` as the start of an escape.
     let line_has_backslash = e.span().is_some_and(|span| {
         text.lines()
@@ -501,6 +502,41 @@ pub(crate) fn toml_message(e: &toml::de::Error, text: &str) -> String {
         message.push_str(BACKSLASH_HINT);
     }
     message
+}
+
+/// serde names the Rust type it wanted ("expected usize"), which says nothing to a user
+/// writing a TOML file: name the kind of number instead, and say how to write it when a
+/// decimal or a quoted number stands where it is not read.
+fn in_plain_words(message: String) -> String {
+    const WHOLE: [&str; 4] = ["usize", "u64", "u32", "u8"];
+    let Some(wanted) = message
+        .rfind(", expected ")
+        .map(|i| i + ", expected ".len())
+    else {
+        return message;
+    };
+    let (head, ty) = message.split_at(wanted);
+    let plain = if WHOLE.contains(&ty) {
+        "a whole number, 0 or more"
+    } else if ["i64", "i32"].contains(&ty) {
+        "a whole number"
+    } else if ty == "f64" {
+        "a number"
+    } else {
+        return message;
+    };
+    let quoted_number = head
+        .strip_prefix("invalid type: string \"")
+        .and_then(|rest| rest.rsplit_once('"'))
+        .is_some_and(|(inner, _)| inner.trim().parse::<f64>().is_ok());
+    let how = if head.starts_with("invalid type: floating point") && plain != "a number" {
+        " (written without a decimal point or exponent: 2, not 2.0 or 2e0)"
+    } else if quoted_number {
+        " (written without quotes)"
+    } else {
+        ""
+    };
+    format!("{head}{plain}{how}")
 }
 
 /// Why a backslash in a scenario's or sweep file's path goes wrong, and what to write instead.

@@ -397,7 +397,52 @@ fn a_date_where_a_number_belongs_is_called_a_date() {
         .unwrap();
         run_fails(&scenario, &out)
             .says(&format!("{}:3:", scenario.display()))
-            .says("invalid type: a date or time, expected usize");
+            .says("invalid type: a date or time, expected a whole number, 0 or more");
+    }
+}
+
+/// serde's messages name the Rust type wanted ("expected usize", "expected f64"); a user
+/// writing a scenario reads the kind of number instead, and how to write it when a decimal
+/// or a quoted number stands in its place.
+#[test]
+fn a_number_of_the_wrong_kind_is_named_in_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("kinds.toml");
+    let out = dir.path().join("out");
+    for (line, says) in [
+        (
+            "trials = -1",
+            "invalid value: integer `-1`, expected a whole number, 0 or more",
+        ),
+        (
+            "trials = 1e3",
+            "invalid type: floating point `1000.0`, expected a whole number, 0 or more \
+             (written without a decimal point or exponent: 2, not 2.0 or 2e0)",
+        ),
+        (
+            "trials = \"3\"",
+            "invalid type: string \"3\", expected a whole number, 0 or more (written without \
+             quotes)",
+        ),
+        (
+            "step_size = \"1e-3\"",
+            "invalid type: string \"1e-3\", expected a number (written without quotes)",
+        ),
+        (
+            "step_size = \"fast\"",
+            "invalid type: string \"fast\", expected a number\n",
+        ),
+        (
+            "step_size = true",
+            "invalid type: boolean `true`, expected a number\n",
+        ),
+    ] {
+        let text = "step_size = 0.001\nstop_time = 1.0\ntrials = 2\n"
+            .replace(&format!("{} = ", &line[..line.find(' ').unwrap()]), "#")
+            + line
+            + "\n";
+        std::fs::write(&scenario, text).unwrap();
+        run_fails(&scenario, &out).says(&format!("{}:4: {says}", scenario.display()));
     }
 }
 
