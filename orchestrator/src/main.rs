@@ -58,7 +58,7 @@ fn main() -> ExitCode {
                     )
                 })
                 .unwrap_or_default();
-            orchestrator::console!("error: {}{hint}", describe(&e));
+            orchestrator::console!("error: {}{hint}", describe(&*e));
             ExitCode::FAILURE
         }
     }
@@ -76,9 +76,9 @@ fn disk_full(e: &anyhow::Error) -> bool {
 
 /// The error and its causes, skipping causes whose text the message already contains
 /// (library errors embed their source in their own message).
-fn describe(e: &anyhow::Error) -> String {
+fn describe(e: &(dyn std::error::Error + 'static)) -> String {
     let mut msg = e.to_string();
-    for cause in e.chain().skip(1) {
+    for cause in std::iter::successors(e.source(), |c| c.source()) {
         let c = cause.to_string();
         if !msg.contains(&c) {
             msg.push_str(": ");

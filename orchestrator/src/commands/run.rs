@@ -83,18 +83,9 @@ fn kept_trials_told(e: CampaignError, scenario: &Path, out: &Path) -> anyhow::Er
         Some(n) if n > 0 && (write_failed || matches!(e, CampaignError::Master(_))) => n,
         _ => return e.into(),
     };
-    // The whole chain in one message, as `main` shows an error, so that the kept trials come
-    // after the reason (`main` skips causes the message already holds).
-    let mut message = e.to_string();
-    let mut cause = std::error::Error::source(&e);
-    while let Some(c) = cause {
-        let text = c.to_string();
-        if !message.contains(&text) {
-            message.push_str(": ");
-            message.push_str(&text);
-        }
-        cause = c.source();
-    }
+    // The whole chain in one message, so that the kept trials come after the reason
+    // (`main` skips causes the message already holds).
+    let mut message = crate::describe(&e);
     let trials = match kept {
         1 => "trial 0 is".to_owned(),
         n => format!("trials 0–{} are", n - 1),
