@@ -454,8 +454,8 @@ fn folder_given_for_file(dir: &Path) -> String {
     let scenario = dir.join("scenario.toml");
     if scenario.is_file() && dir.join("progress.toml").is_file() {
         format!(
-            "it is a campaign's folder, not a scenario file; `orchestrator run {} --out \
-             {shown} --resume` continues its campaign",
+            "it is a campaign's folder, not a scenario file: its scenario is {0} \
+             (`orchestrator run {0} --out {shown} --resume` continues the campaign)",
             scenario.display()
         )
     } else if dir.join("sweep.toml").is_file() {

@@ -417,6 +417,13 @@ struct InputTable {
 impl InputTable {
     /// Reads and checks the whole table; errors name the file, the line and the column.
     fn read(path: &Path, md: &ModelDescription) -> Result<InputTable> {
+        // Linux opens a folder and fails only on the read, as if the header were at fault.
+        if path.is_dir() {
+            return Err(SimulateError::Invalid(format!(
+                "cannot read the input file {}: it is a folder, not a CSV file",
+                path.display()
+            )));
+        }
         let file = std::fs::File::open(path).map_err(|e| {
             SimulateError::Invalid(format!(
                 "cannot read the input file {}: {e}",

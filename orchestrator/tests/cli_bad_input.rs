@@ -479,9 +479,9 @@ fn a_scenario_not_in_utf8_is_named_with_its_encoding() {
         .success();
 }
 
-/// A folder given where a scenario or sweep file belongs (a campaign's `--out`, as a user
-/// resuming it might) is called a folder, with the command that continues what it holds;
-/// that command works. Before, it said "Is a directory (os error 21)".
+/// A folder given where a scenario, sweep or input file belongs (a campaign's `--out`, as a
+/// user resuming it might) is called a folder, with the command that continues what it
+/// holds; that command works. Before, it said "Is a directory (os error 21)".
 #[test]
 fn a_folder_given_as_the_scenario_names_the_command_that_resumes_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -501,8 +501,9 @@ fn a_folder_given_as_the_scenario_names_the_command_that_resumes_it() {
     let out = dir.path().join("out");
     let shown = campaign.display();
     run_fails(&campaign, &out).says(&format!(
-        "{shown}: cannot read the scenario: it is a campaign's folder, not a scenario file; \
-         `orchestrator run {shown}/scenario.toml --out {shown} --resume` continues its campaign"
+        "{shown}: cannot read the scenario: it is a campaign's folder, not a scenario file: \
+         its scenario is {shown}/scenario.toml (`orchestrator run {shown}/scenario.toml --out \
+         {shown} --resume` continues the campaign)"
     ));
     orchestrator()
         .arg("run")
@@ -517,6 +518,22 @@ fn a_folder_given_as_the_scenario_names_the_command_that_resumes_it() {
     std::fs::create_dir(&empty).unwrap();
     run_fails(&empty, &out).says(&format!(
         "{}: cannot read the scenario: it is a folder, not a file",
+        empty.display()
+    ));
+    let csv = dir.path().join("result.csv");
+    fails(
+        &[
+            "simulate".as_ref(),
+            foreign_fmu(dir.path()).as_os_str(),
+            "--input".as_ref(),
+            empty.as_os_str(),
+            "-o".as_ref(),
+            csv.as_os_str(),
+        ],
+        &csv,
+    )
+    .says(&format!(
+        "cannot read the input file {}: it is a folder, not a CSV file",
         empty.display()
     ));
     let swept = dir.path().join("swept");
