@@ -28,7 +28,8 @@ fn scenario(dir: &Path, gain: f64, x_limit: f64) -> PathBuf {
     path
 }
 
-/// Runs `scenario` with `--jobs jobs` into `out`: success, and stderr's last line.
+/// Runs `scenario` with `--jobs jobs` into `out`: success, and the error line of stderr (its
+/// last line when there is none).
 fn run(scenario: &Path, out: &Path, jobs: usize) -> (bool, String) {
     let o = orchestrator()
         .arg("run")
@@ -41,7 +42,12 @@ fn run(scenario: &Path, out: &Path, jobs: usize) -> (bool, String) {
     let err = String::from_utf8_lossy(&o.stderr);
     (
         o.status.success(),
-        err.lines().last().unwrap_or_default().to_owned(),
+        // The error's own line: the trials kept follow it, in the lane count's folder.
+        err.lines()
+            .find(|l| l.starts_with("error: "))
+            .or_else(|| err.lines().last())
+            .unwrap_or_default()
+            .to_owned(),
     )
 }
 
