@@ -162,11 +162,23 @@ pub fn convert(
 ) -> Result<Value, String> {
     use toml::Value as T;
     let name = &var.name;
+    // A number in quotes is TOML text: `"1.0"` would otherwise be told it is no number.
+    let quoted_number = |kind: &str| match literal {
+        Literal::Toml(T::String(s)) if s.trim().parse::<f64>().is_ok() => Some(format!(
+            "\"{s}\" is quoted, so it is text, not a number: write it without quotes \
+             ('{name}' is {kind})"
+        )),
+        _ => None,
+    };
     match &var.kind {
         VariableKind::Real { .. } => as_number(literal)
             .filter(|x| x.is_finite())
             .map(Value::Real)
-            .ok_or_else(|| format!("'{literal}' is not a finite number ('{name}' is a Real)")),
+            .ok_or_else(|| {
+                quoted_number("a Real").unwrap_or_else(|| {
+                    format!("'{literal}' is not a finite number ('{name}' is a Real)")
+                })
+            }),
         VariableKind::Integer { .. } => match literal {
             Literal::Text(t) => parse_integer(t.trim()),
             Literal::Toml(T::Integer(i)) => i32::try_from(*i).ok(),
@@ -176,7 +188,9 @@ pub fn convert(
         .map(Value::Integer)
         .ok_or_else(|| {
             let whole = as_number(literal).is_some_and(|x| x.is_finite() && x.fract() == 0.0);
-            if whole {
+            if let Some(quoted) = quoted_number("an Integer") {
+                quoted
+            } else if whole {
                 format!(
                     "'{literal}' is out of range: '{name}' is an Integer, from {} to {}",
                     i32::MIN,

@@ -444,6 +444,21 @@ fn a_number_of_the_wrong_kind_is_named_in_words() {
         std::fs::write(&scenario, text).unwrap();
         run_fails(&scenario, &out).says(&format!("{}:4: {says}", scenario.display()));
     }
+    // An FMU's parameter given a number in quotes is told it is text, not that "2.5" is no
+    // number.
+    let quoted = scenario_for(dir.path(), "quoted", &foreign_fmu(dir.path()));
+    let mut text = std::fs::read_to_string(&quoted).unwrap();
+    text.push_str("[fmu.parameters]\nmass = \"2.5\"\nsubsteps = \" 4\"\n");
+    std::fs::write(&quoted, text).unwrap();
+    run_fails(&quoted, &out)
+        .says(
+            ":8: \"2.5\" is quoted, so it is text, not a number: write it without quotes \
+             ('mass' is a Real)",
+        )
+        .says(
+            ":9: \" 4\" is quoted, so it is text, not a number: write it without quotes \
+             ('substeps' is an Integer)",
+        );
 }
 
 /// A scenario saved in another encoding than UTF-8 (Windows editors offer UTF-16 as

@@ -693,6 +693,24 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
             "sweep.toml:16",
             "report.threshold = NaN must be positive",
         ),
+        // A value its variable cannot take is named at its axis, not as some case's scenario.
+        (
+            text.replace(
+                "scale = true\nvalues = [0.8, 1.0, 1.2]",
+                "values = [0.8, \"1.0\", 1.2]",
+            ),
+            "sweep.toml:4",
+            "axis \"mass\": value 2 of 3: \"1.0\" is quoted, so it is text, not a number: write it \
+             without quotes ('platform_mass' is a Real)",
+        ),
+        (
+            text.replace(
+                "parameters = [\"plant.platform_mass\"]\nscale = true\nvalues = [0.8, 1.0, 1.2]",
+                "parameters = [\"plant.substeps\"]\nvalues = [1, 0, 2.5]",
+            ),
+            "sweep.toml:4",
+            "axis \"mass\": value 2 of 3: \"substeps\" = 0 is below its declared min = 1",
+        ),
         // Each axis within the limit, their product beyond it: the axis that passes it.
         (
             text.replace("samples = 2", "samples = 400000"),

@@ -26,7 +26,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use fmi2_import::{FileStamp, Fmu, ImportError, KeptFmus, file_stamp};
-use fmi2_md::ModelDescription;
+use fmi2_md::{ModelDescription, ScalarVariable};
 
 pub use self::results::{CaseResult, Verdict, write_results};
 pub use self::spec::{Axis, Combine, Seeds, SweepSpec, SweepSpecError, Target};
@@ -351,6 +351,34 @@ fn memory_table<'d>(doc: &'d mut toml::Table, to: &str) -> Result<&'d mut toml::
         .ok_or_else(|| format!("the base scenario has no memory channel to {to:?}"))
 }
 
+/// The first of an axis' values that its variables cannot take (of the wrong type, or
+/// outside a declared range), named by its place: caught here, it is reported at the axis'
+/// line rather than as the scenario of some case. Scale factors and per-trial or array
+/// values are left to each case's scenario, where they meet the base values.
+fn axis_value_problem(
+    axis: &Axis,
+    md: &ModelDescription,
+    vars: &[&ScalarVariable],
+) -> Option<String> {
+    use crate::variables::{Literal, check_value, convert};
+    if axis.scale {
+        return None;
+    }
+    axis.values
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| !(v.is_array() || v.is_table()))
+        .find_map(|(j, value)| {
+            vars.iter()
+                .find_map(|var| {
+                    convert(md, var, Literal::Toml(value))
+                        .and_then(|parsed| check_value(md, var, &parsed))
+                        .err()
+                })
+                .map(|why| format!("value {} of {}: {why}", j + 1, axis.values.len()))
+        })
+}
+
 /// Every case's scenario, validated against the FMUs before anything runs.
 fn plan(
     spec: &SweepSpec,
@@ -361,19 +389,22 @@ fn plan(
     for axis in &spec.axes {
         if let Target::Parameters(ps) = &axis.target {
             for (fmu, name) in ps {
-                let vars = base
+                let md = base
                     .fmus
                     .iter()
                     .find(|(n, _, _)| n == fmu)
-                    .map(|(_, _, md)| crate::variables::resolve(md, name))
+                    .map(|(_, _, md)| md);
+                let vars = md
+                    .map(|md| crate::variables::resolve(md, name))
                     .unwrap_or_default();
                 // Unknown, or known but not a value a master may give (an output).
-                let problem = match vars.first() {
-                    None => Some(format!("FMU {fmu:?} has no variable {name:?}")),
-                    Some(_) => vars
+                let problem = match (vars.first(), md) {
+                    (Some(_), Some(md)) => vars
                         .iter()
                         .find_map(|v| crate::variables::settable(v).err())
-                        .map(|why| format!("FMU {fmu:?}: {why}")),
+                        .map(|why| format!("FMU {fmu:?}: {why}"))
+                        .or_else(|| axis_value_problem(axis, md, &vars)),
+                    _ => Some(format!("FMU {fmu:?} has no variable {name:?}")),
                 };
                 if let Some(problem) = problem {
                     return Err(SweepSpecError {
