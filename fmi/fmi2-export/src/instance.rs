@@ -655,19 +655,16 @@ impl<M: Model> Instance<M> {
 
     /// fmi2DoStep from `cp` by `h`.
     pub(crate) fn do_step(&mut self, cp: f64, h: f64) -> Outcome {
-        if !(h.is_finite() && h > 0.0) {
-            return Err(step_refused(format_args!(
-                "communicationStepSize {} must be finite and > 0",
-                Shown(h)
-            )));
+        // One test for a step that cannot be taken: h not finite or not > 0, cp not finite,
+        // h below the spacing of doubles at cp (t + h = t), or an end beyond the largest
+        // double. Each is told apart out of line.
+        let end = cp + h;
+        if !(end.is_finite() && end > cp) {
+            return Err(self.step_cannot_advance(cp, h));
         }
         let t = self.glue.time;
-        if !cp.is_finite() || (cp - t).abs() > time_tolerance(t) {
-            return Err(step_refused(format_args!(
-                "currentCommunicationPoint {} does not match the FMU time {}",
-                Shown(cp),
-                Shown(t)
-            )));
+        if (cp - t).abs() > time_tolerance(t) {
+            return Err(self.cp_mismatch(cp));
         }
         if !M::CAN_HANDLE_VARIABLE_STEP {
             if let Some(h0) = self.glue.first_step {
@@ -680,10 +677,6 @@ impl<M: Model> Instance<M> {
                     )));
                 }
             }
-        }
-        let end = cp + h;
-        if end == cp {
-            return Err(step_stalled(cp, h));
         }
         if let Some(stop) = self.glue.stop_time {
             if end > stop + time_tolerance(stop) {
@@ -706,6 +699,51 @@ impl<M: Model> Instance<M> {
             return Err(self.step_warning(cp, h, remark));
         }
         Ok(Status::Ok)
+    }
+
+    /// Why [`Instance::do_step`] refused a step that would not move the time forward, in
+    /// the order a user fixes them: the step size, the communication point, then a step
+    /// too small to move the time off `cp` (the model would integrate by `h` while the
+    /// FMU's time, and so every later communication point, stood still).
+    #[cold]
+    #[inline(never)]
+    fn step_cannot_advance(&self, cp: f64, h: f64) -> Failure {
+        if !(h.is_finite() && h > 0.0) {
+            return step_refused(format_args!(
+                "communicationStepSize {} must be finite and > 0",
+                Shown(h)
+            ));
+        }
+        if !cp.is_finite() {
+            return self.cp_mismatch(cp);
+        }
+        if !(cp + h).is_finite() {
+            return step_refused(format_args!(
+                "a step of {} from {} ends beyond the largest double",
+                Shown(h),
+                Shown(cp)
+            ));
+        }
+        // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
+        let spacing = f64::from_bits(cp.abs().to_bits() + 1) - cp.abs();
+        step_refused(format_args!(
+            "a step of {} from {} does not advance time: neighbouring times there are {} apart",
+            Shown(h),
+            Shown(cp),
+            Shown(spacing)
+        ))
+    }
+
+    /// The error of a communication point other than the FMU's time. Out of line, as
+    /// [`step_refused`].
+    #[cold]
+    #[inline(never)]
+    fn cp_mismatch(&self, cp: f64) -> Failure {
+        step_refused(format_args!(
+            "currentCommunicationPoint {} does not match the FMU time {}",
+            Shown(cp),
+            Shown(self.glue.time)
+        ))
     }
 
     /// The outcome of a model step that was taken with a remark: fmi2Warning, the step
@@ -750,21 +788,6 @@ impl<M: Model> Instance<M> {
 #[inline(never)]
 fn step_refused(message: std::fmt::Arguments<'_>) -> Failure {
     Failure::error(message.to_string())
-}
-
-/// The error of a step too small to move the time off `cp`: the model would integrate by
-/// `h` while the FMU's time, and so every later communication point, stood still.
-#[cold]
-#[inline(never)]
-fn step_stalled(cp: f64, h: f64) -> Failure {
-    // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
-    let spacing = f64::from_bits(cp.abs().to_bits() + 1) - cp.abs();
-    Failure::error(format!(
-        "a step of {} from {} does not advance time: neighbouring times there are {} apart",
-        Shown(h),
-        Shown(cp),
-        Shown(spacing)
-    ))
 }
 
 #[cfg(test)]

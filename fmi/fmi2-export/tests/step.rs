@@ -55,6 +55,19 @@ fn a_step_that_cannot_advance_time_is_refused() {
         "no step was taken"
     );
 
+    // A step whose end lies beyond the largest double is refused too, before the model runs.
+    let fmu = Fmu::new("overflow");
+    assert_eq!(fmu.setup(1e308, None), Status::Ok);
+    assert_eq!(fmu.enter_init(), Status::Ok);
+    assert_eq!(fmu.exit_init(), Status::Ok);
+    assert_eq!(fmu.do_step(1e308, 1e308), Status::Error);
+    assert!(
+        fmu.log
+            .contains("fmi2DoStep: a step of 1e308 from 1e308 ends beyond the largest double"),
+        "{:?}",
+        fmu.log.messages()
+    );
+
     let fmu = Fmu::new("stall-ok");
     assert_eq!(fmu.setup(1e17, None), Status::Ok);
     assert_eq!(fmu.enter_init(), Status::Ok);
