@@ -35,10 +35,7 @@ fn step_size_must_be_positive_and_finite() {
 /// taken there.
 #[test]
 fn a_step_that_cannot_advance_time_is_refused() {
-    let fmu = Fmu::new("stall");
-    assert_eq!(fmu.setup(1e17, None), Status::Ok);
-    assert_eq!(fmu.enter_init(), Status::Ok);
-    assert_eq!(fmu.exit_init(), Status::Ok);
+    let fmu = Fmu::initialized_at("stall", 1e17);
     let steps = fmu.get_integer(&[vr::STEP_COUNT]).1;
     assert_eq!(fmu.do_step(1e17, 0.001), Status::Error);
     assert!(
@@ -56,10 +53,7 @@ fn a_step_that_cannot_advance_time_is_refused() {
     );
 
     // A step whose end lies beyond the largest double is refused too, before the model runs.
-    let fmu = Fmu::new("overflow");
-    assert_eq!(fmu.setup(1e308, None), Status::Ok);
-    assert_eq!(fmu.enter_init(), Status::Ok);
-    assert_eq!(fmu.exit_init(), Status::Ok);
+    let fmu = Fmu::initialized_at("overflow", 1e308);
     assert_eq!(fmu.do_step(1e308, 1e308), Status::Error);
     assert!(
         fmu.log
@@ -68,10 +62,7 @@ fn a_step_that_cannot_advance_time_is_refused() {
         fmu.log.messages()
     );
 
-    let fmu = Fmu::new("stall-ok");
-    assert_eq!(fmu.setup(1e17, None), Status::Ok);
-    assert_eq!(fmu.enter_init(), Status::Ok);
-    assert_eq!(fmu.exit_init(), Status::Ok);
+    let fmu = Fmu::initialized_at("stall-ok", 1e17);
     assert_eq!(fmu.do_step(1e17, 32.0), Status::Ok);
     assert_eq!(fmu.last_successful_time(), (Status::Ok, 1e17 + 32.0));
 }

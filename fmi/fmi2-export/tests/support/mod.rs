@@ -879,6 +879,15 @@ impl Fmu {
         fmu
     }
 
+    /// A fresh instance initialized at `start`, with no stop time.
+    pub fn initialized_at(name: &str, start: f64) -> Self {
+        let fmu = Self::new(name);
+        assert_eq!(fmu.setup(start, None), Status::Ok);
+        assert_eq!(fmu.enter_init(), Status::Ok);
+        assert_eq!(fmu.exit_init(), Status::Ok);
+        fmu
+    }
+
     /// A fresh instance brought into `state` through legal calls only (StepCanceled,
     /// unreachable for a synchronous FMU, through a serialized state carrying it).
     pub fn in_state(state: FmiState) -> Self {
