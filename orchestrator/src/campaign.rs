@@ -406,12 +406,13 @@ fn read_progress(file: &Path) -> Result<Progress, String> {
     toml::from_str(&text).map_err(|e| format!("progress.toml: {e}"))
 }
 
-/// How many trials the campaign in `dir` has completed and kept, by its `progress.toml`;
-/// `None` if it holds no readable one.
-pub fn completed_trials(dir: &Path) -> Option<usize> {
-    read_progress(&dir.join("progress.toml"))
-        .ok()
-        .map(|p| p.completed)
+/// How many trials the campaign of `scenario` (with `text`) in `dir` has completed and
+/// kept, by its `progress.toml`; `None` if it holds none readable, or one of another
+/// scenario (a `--force` run that failed before its first trial leaves the old one).
+pub fn completed_trials(dir: &Path, scenario: &Scenario, text: &str) -> Option<usize> {
+    let p = read_progress(&dir.join("progress.toml")).ok()?;
+    let ours = fingerprint(scenario, text).ok()?.matches(&p);
+    ours.then_some(p.completed)
 }
 
 impl Fingerprints {

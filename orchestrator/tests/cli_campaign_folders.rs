@@ -130,6 +130,8 @@ fn a_new_run_never_destroys_an_existing_campaign() {
     let o = run(&bad, &out, &["--force"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("end stop"), "{}", stderr(&o));
+    // The old campaign's trials are not this run's to name as kept.
+    assert!(!stderr(&o).contains("kept in"), "{}", stderr(&o));
     assert_eq!(
         tree(&out),
         before,

@@ -47,7 +47,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
     };
     let summaries = run_campaign(&scenario, &text, fmus, &opts)
-        .map_err(|e| kept_trials_told(e, &args.scenario, &out_dir))?;
+        .map_err(|e| kept_trials_told(e, &args.scenario, &out_dir, &scenario, &text))?;
     for s in &summaries {
         match s.legs {
             Some(legs) => orchestrator::console!(
@@ -77,9 +77,15 @@ struct StoppedPartWay {
     source: CampaignError,
 }
 
-fn kept_trials_told(e: CampaignError, scenario: &Path, out: &Path) -> anyhow::Error {
+fn kept_trials_told(
+    e: CampaignError,
+    file: &Path,
+    out: &Path,
+    scenario: &Scenario,
+    text: &str,
+) -> anyhow::Error {
     let write_failed = matches!(e, CampaignError::Output(_));
-    let kept = match completed_trials(out) {
+    let kept = match completed_trials(out, scenario, text) {
         Some(n) if n > 0 && (write_failed || matches!(e, CampaignError::Master(_))) => n,
         _ => return e.into(),
     };
@@ -95,7 +101,7 @@ fn kept_trials_told(e: CampaignError, scenario: &Path, out: &Path) -> anyhow::Er
         message.push_str(&format!(
             "; once the write can succeed (free disk space, for one), `orchestrator run {} \
              --out {} --resume` continues the campaign",
-            scenario.display(),
+            file.display(),
             out.display()
         ));
     }
