@@ -204,8 +204,7 @@ const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 /// is within two spacings of its exact value, so more than four spacings keep them apart.
 pub fn unresolved_step(start: f64, stop: f64, h: f64) -> Option<String> {
     let far = start.abs().max(stop.abs());
-    // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
-    let spacing = f64::from_bits(far.to_bits() + 1) - far;
+    let spacing = fmi2_md::time_spacing(far);
     let resolves = h > 4.0 * spacing;
     (!resolves).then(|| {
         format!(

@@ -724,13 +724,11 @@ impl<M: Model> Instance<M> {
                 Shown(cp)
             ));
         }
-        // The next double up, by its bits: `f64::next_up` is newer than the crate's MSRV.
-        let spacing = f64::from_bits(cp.abs().to_bits() + 1) - cp.abs();
         step_refused(format_args!(
             "a step of {} from {} does not advance time: neighbouring times there are {} apart",
             Shown(h),
             Shown(cp),
-            Shown(spacing)
+            Shown(fmu_core::time_spacing(cp))
         ))
     }
 

@@ -55,7 +55,7 @@ pub enum Variability {
     Continuous,
 }
 pub use error::{MdError, MdErrorKind, ParseEnumError, Problem};
-pub use shown::Shown;
+pub use shown::{Shown, time_spacing};
 
 /// A parsed FMI 2.0 model description.
 #[derive(Debug, Clone, PartialEq)]

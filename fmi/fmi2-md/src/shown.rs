@@ -17,3 +17,11 @@ impl std::fmt::Display for Shown {
         }
     }
 }
+
+/// The distance from |t| to the next double up: how far apart neighbouring times lie near
+/// `t`, which the FMUs and the master name when a step is too small to move the time.
+/// By the bits, since `f64::next_up` is newer than the workspace's MSRV.
+pub fn time_spacing(t: f64) -> f64 {
+    let far = t.abs();
+    f64::from_bits(far.to_bits() + 1) - far
+}

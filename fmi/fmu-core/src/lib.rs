@@ -12,7 +12,7 @@
 
 pub mod values;
 
-pub use fmi2_md::{Causality, Shown, VarType, Variability};
+pub use fmi2_md::{Causality, Shown, VarType, Variability, time_spacing};
 
 /// One scalar variable of the model, generated from `modelDescription/<Model>.xml`
 /// by the FMU crate's build script so the two never drift apart.
