@@ -14,21 +14,19 @@ const EXIT_INTERRUPTED: i32 = 130;
 
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
-    let resume = match cli.command {
-        args::Command::Run(_) => "; `run --resume` continues the campaign",
-        args::Command::Sweep(_) => "; `sweep --resume` continues the sweep",
-        args::Command::Paper(_) => "; `paper --resume` continues the study",
-        _ => "",
-    };
-    // `run` names its kept trials itself (commands/run.rs), for any failed write.
-    let study = match cli.command {
-        args::Command::Sweep(_) => {
-            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep")
-        }
-        args::Command::Paper(_) => {
-            Some("`paper --resume`, with the same options, continues the study")
-        }
-        _ => None,
+    // What continues the work after a signal, and after a full disk (`run` names its kept
+    // trials itself, for any failed write: commands/run.rs).
+    let (resume, study) = match cli.command {
+        args::Command::Run(_) => ("; `run --resume` continues the campaign", None),
+        args::Command::Sweep(_) => (
+            "; `sweep --resume` continues the sweep",
+            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep"),
+        ),
+        args::Command::Paper(_) => (
+            "; `paper --resume` continues the study",
+            Some("`paper --resume`, with the same options, continues the study"),
+        ),
+        _ => ("", None),
     };
     // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
     // exiting. Result files need nothing: each is written to a temporary file and renamed,

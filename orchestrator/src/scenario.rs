@@ -515,12 +515,12 @@ fn in_plain_words(message: String) -> String {
         return message;
     };
     let (head, ty) = message.split_at(wanted);
-    let plain = if WHOLE.contains(&ty) {
-        "a whole number, 0 or more"
+    let (plain, whole) = if WHOLE.contains(&ty) {
+        ("a whole number, 0 or more", true)
     } else if ["i64", "i32"].contains(&ty) {
-        "a whole number"
+        ("a whole number", true)
     } else if ty == "f64" {
-        "a number"
+        ("a number", false)
     } else {
         return message;
     };
@@ -528,7 +528,7 @@ fn in_plain_words(message: String) -> String {
         .strip_prefix("invalid type: string \"")
         .and_then(|rest| rest.rsplit_once('"'))
         .is_some_and(|(inner, _)| inner.trim().parse::<f64>().is_ok());
-    let how = if head.starts_with("invalid type: floating point") && plain != "a number" {
+    let how = if whole && head.starts_with("invalid type: floating point") {
         " (written without a decimal point or exponent: 2, not 2.0 or 2e0)"
     } else if quoted_number {
         " (written without quotes)"
