@@ -160,6 +160,45 @@ fn a_file_that_is_not_a_zip() {
     );
 }
 
+/// A scenario or sweep file given to `info` or `simulate` in place of an FMU is named as one,
+/// with the command that runs it; another text file only as text.
+#[test]
+fn a_scenario_or_sweep_file_given_as_an_fmu_names_its_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = scenario_for(dir.path(), "study", &dir.path().join("unit.fmu"));
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "base = \"study.toml\"\n[[axis]]\nname = \"m\"\nparameters = [\"unit.m\"]\nvalues = [1.0]\n",
+    )
+    .unwrap();
+    let other = dir.path().join("notes.toml");
+    std::fs::write(&other, "title = \"not a scenario\"\n").unwrap();
+    let csv = dir.path().join("result.csv");
+    for (file, command) in [
+        (&scenario, Some("run")),
+        (&sweep, Some("sweep")),
+        (&other, None),
+    ] {
+        for verb in ["info", "simulate"] {
+            let failure = fails(&[verb.as_ref(), file.as_os_str()], &csv);
+            failure.says_once(&format!(
+                "{} is not a zip archive: it is a text file; an FMU is a zip archive",
+                file.display()
+            ));
+            match command {
+                Some(command) => {
+                    failure.says(&format!(
+                        "`orchestrator {command} {}` runs it",
+                        file.display()
+                    ));
+                }
+                None => assert!(!failure.stderr.contains("runs it"), "{}", failure.stderr),
+            }
+        }
+    }
+}
+
 #[test]
 fn a_zip_without_model_description() {
     let dir = tempfile::tempdir().unwrap();

@@ -42,11 +42,12 @@ pub enum ImportError {
         unpacked: bool,
     },
     /// The file is not a zip archive (or a damaged one).
-    #[error("{} is not a zip archive ({detail})", .path.display())]
+    #[error("{} is not a zip archive: {detail}", .path.display())]
     NotZip {
         /// The .fmu file.
         path: PathBuf,
-        /// What the zip reader said.
+        /// What the file is instead, where its first bytes tell, else what the zip reader
+        /// said.
         detail: String,
     },
     /// Unpacking failed.

@@ -15,6 +15,47 @@ use fmi2_sys::{FMI_VERSION, TYPES_PLATFORM};
 use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION};
 use libloading::Library;
 
+/// Why the file at `path` is no zip archive, from its first bytes where they tell what it is
+/// (a user who gives the model's library, its modelDescription.xml or a scenario file learns
+/// so), else the zip reader's own reason.
+fn not_zip_detail(path: &Path, zip_detail: String) -> String {
+    const FMU: &str = "an FMU is a zip archive with modelDescription.xml at its root and the \
+                       model's libraries under binaries/<platform>/";
+    let mut head = Vec::new();
+    if File::open(path)
+        .and_then(|f| f.take(1024).read_to_end(&mut head))
+        .is_err()
+    {
+        return format!("the zip reader says: {zip_detail}");
+    }
+    let text = match std::str::from_utf8(&head) {
+        Ok(text) => Some(text),
+        // The first 1024 bytes may end inside a character.
+        Err(e) if e.error_len().is_none() => std::str::from_utf8(&head[..e.valid_up_to()]).ok(),
+        Err(_) => None,
+    }
+    .filter(|t| !t.contains('\0'))
+    .map(|t| t.trim_start_matches('\u{feff}').trim_start());
+    let kind = match head.as_slice() {
+        [] => return "the file is empty".to_owned(),
+        [b'P', b'K', ..] => {
+            return format!("it begins like one but is damaged or cut short: {zip_detail}");
+        }
+        [0x7f, b'E', b'L', b'F', ..] => "an ELF shared library or program",
+        [b'M', b'Z', ..] => "a Windows DLL or program",
+        [0xcf, 0xfa, 0xed, 0xfe, ..]
+        | [0xfe, 0xed, 0xfa, 0xcf, ..]
+        | [0xca, 0xfe, 0xba, 0xbe, ..] => "a macOS library or program",
+        [0x1f, 0x8b, ..] => "gzip-compressed (a .tar.gz?)",
+        _ => match text {
+            Some(t) if t.starts_with('<') => "XML text (a modelDescription.xml alone?)",
+            Some(_) => "a text file",
+            None => return format!("the zip reader says: {zip_detail}"),
+        },
+    };
+    format!("it is {kind}; {FMU}")
+}
+
 /// What every instance of an FMU shares. Field order is drop order: the function
 /// pointers go first, then the library is unloaded, then the unpacked files removed.
 #[derive(Debug)]
@@ -59,8 +100,8 @@ impl Fmu {
             },
         })?;
         let mut archive = zip::ZipArchive::new(file).map_err(|e| ImportError::NotZip {
+            detail: not_zip_detail(&path, e.to_string()),
             path: path.clone(),
-            detail: e.to_string(),
         })?;
         if archive.index_for_name("modelDescription.xml").is_none() {
             return Err(ImportError::NoModelDescription { path });

@@ -33,18 +33,62 @@ fn missing_file_is_named() {
     assert_eq!(err.to_string(), "/nonexistent/Missing.fmu: no such file");
 }
 
+/// A file that is no zip archive is named with what it is, where its first bytes tell: the
+/// model's library, its description alone, text, an empty file, a cut archive.
 #[test]
-fn not_a_zip() {
+fn not_a_zip_says_what_the_file_is() {
     let dir = temp();
-    let path = dir.path().join("Text.fmu");
-    std::fs::write(&path, "this is not a zip archive at all").unwrap();
-    let err = open_err(&path);
-    assert!(matches!(err, ImportError::NotZip { .. }), "{err:?}");
-    assert!(
-        err.to_string()
-            .starts_with(&format!("{} is not a zip archive", path.display())),
-        "{err}"
-    );
+    let valid = fmu_with(dir.path(), VALID);
+    let archive = std::fs::read(&valid).unwrap();
+    let mut elf = b"\x7fELF\x02\x01\x01".to_vec();
+    elf.resize(4096, 0);
+    let mut dll = b"MZ\x90\x00".to_vec();
+    dll.resize(4096, 0xff);
+    // A text longer than the bytes read, cut inside a two-byte character at byte 1024.
+    let long_text = format!("{}é and more", "x".repeat(1023));
+    let cases: [(&str, Vec<u8>, &str); 9] = [
+        ("Empty.fmu", Vec::new(), "the file is empty"),
+        (
+            "lib.so",
+            elf,
+            "it is an ELF shared library or program; an FMU is a zip archive",
+        ),
+        ("Model.dll", dll, "it is a Windows DLL or program; "),
+        (
+            "md.xml",
+            format!("\u{feff}  {VALID}").into_bytes(),
+            "it is XML text (a modelDescription.xml alone?); ",
+        ),
+        (
+            "notes.fmu",
+            b"this is not a zip archive at all".to_vec(),
+            "it is a text file; ",
+        ),
+        ("long.fmu", long_text.into_bytes(), "it is a text file; "),
+        (
+            "Model.tar.gz",
+            vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0],
+            "it is gzip-compressed (a .tar.gz?); ",
+        ),
+        (
+            "Cut.fmu",
+            archive[..archive.len() / 2].to_vec(),
+            "it begins like one but is damaged or cut short: ",
+        ),
+        (
+            "Noise.fmu",
+            vec![0x00, 0x9c, 0xff, 0x13, 0x37, 0x00, 0xfe],
+            "the zip reader says: ",
+        ),
+    ];
+    for (name, bytes, detail) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let err = open_err(&path);
+        assert!(matches!(err, ImportError::NotZip { .. }), "{name}: {err:?}");
+        let expected = format!("{} is not a zip archive: {detail}", path.display());
+        assert!(err.to_string().starts_with(&expected), "{name}: {err}");
+    }
 }
 
 /// A folder, unpacked FMU or not, is named as a folder rather than as a damaged archive.

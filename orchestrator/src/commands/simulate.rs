@@ -43,7 +43,35 @@ pub fn run(args: SimulateArgs) -> Result<()> {
 }
 
 /// Opens an FMU. An [`ImportError`] is reported by its message alone: that message already
-/// includes its cause, which `{:#}` in `main` would otherwise print a second time.
+/// includes its cause, which `{:#}` in `main` would otherwise print a second time. A scenario
+/// or sweep file given here is named as such, with the command that runs it.
 pub(crate) fn open_fmu(path: &Path) -> Result<Fmu> {
-    Fmu::open(path).map_err(|e| anyhow::Error::msg(e.to_string()))
+    Fmu::open(path).map_err(|e| {
+        let hint = match &e {
+            fmi2_import::ImportError::NotZip { .. } => run_command_for(path),
+            _ => None,
+        };
+        anyhow::Error::msg(match hint {
+            Some(hint) => format!("{e}\n{hint}"),
+            None => e.to_string(),
+        })
+    })
+}
+
+/// `orchestrator run FILE` or `orchestrator sweep FILE` when `path` holds a scenario or a
+/// sweep file (a TOML table with `[[fmu]]` or `[[axis]]`).
+fn run_command_for(path: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let table: toml::Table = text.parse().ok()?;
+    let (kind, command) = if table.contains_key("fmu") {
+        ("scenario", "run")
+    } else if table.contains_key("axis") {
+        ("sweep", "sweep")
+    } else {
+        return None;
+    };
+    Some(format!(
+        "it is a {kind} file: `orchestrator {command} {}` runs it",
+        path.display()
+    ))
 }
