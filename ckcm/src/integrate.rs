@@ -9,6 +9,7 @@ use nalgebra::{Quaternion, SVector, UnitQuaternion, Vector6};
 
 use crate::dynamics::DynamicsError;
 use crate::kinematics::{Mechanism, Pose};
+use crate::workspace::WorkspaceError;
 
 /// Position, unit quaternion and world twist of the platform.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +74,47 @@ pub enum IntegrationError {
         "the interval needs more than {RK4_MAX_SUBSTEPS:e} RK4 substeps of at most {max_step} s"
     )]
     TooManySubsteps { h: f64, max_step: f64 },
+    /// A state inside the interval, `offset` seconds from its start, failed the caller's
+    /// check; the message leaves the time to the caller, who knows where the interval began.
+    #[error("{cause}")]
+    Outside { offset: f64, cause: WorkspaceError },
+}
+
+/// The check [`Integrator::advance_within`] makes of every state an interval reaches
+/// before its end (substeps of RK4, accepted steps of Dormand–Prince): the caller checks
+/// the end itself, where it needs the same work for its outputs. Taken as `dyn`, so the
+/// integrators stay compiled once, in this crate, with their helpers inlined: made generic,
+/// they were compiled in the plant's crate, which called those helpers out of line
+/// (BENCHMARKS.md, round 51).
+pub trait Inside {
+    fn check(&mut self, state: &State) -> Result<(), WorkspaceError>;
+}
+
+impl<F: FnMut(&State) -> Result<(), WorkspaceError>> Inside for F {
+    #[inline(always)]
+    fn check(&mut self, state: &State) -> Result<(), WorkspaceError> {
+        self(state)
+    }
+}
+
+/// `inside`'s check of the state `y` at `offset` into the interval, out of line: most
+/// intervals are one substep and never call it.
+#[cold]
+#[inline(never)]
+fn check_substep(inside: &mut dyn Inside, y: &Y, offset: f64) -> Result<(), IntegrationError> {
+    inside
+        .check(&State::from_vector(y))
+        .map_err(|cause| IntegrationError::Outside { offset, cause })
+}
+
+/// No check: every state is accepted.
+struct Anywhere;
+
+impl Inside for Anywhere {
+    #[inline(always)]
+    fn check(&mut self, _: &State) -> Result<(), WorkspaceError> {
+        Ok(())
+    }
 }
 
 /// dy/dt with the actuator forces `tau` held constant.
@@ -145,16 +187,31 @@ impl Rk4 {
         tau: &Vector6<f64>,
         h: f64,
     ) -> Result<(), IntegrationError> {
+        self.advance_within(mech, state, tau, h, &mut Anywhere)
+    }
+
+    /// [`Rk4::advance`], with `inside` checking the state after each substep but the last.
+    pub fn advance_within(
+        &self,
+        mech: &Mechanism,
+        state: &mut State,
+        tau: &Vector6<f64>,
+        h: f64,
+        inside: &mut dyn Inside,
+    ) -> Result<(), IntegrationError> {
         let n = self.substeps_for(h)?;
         let dt = h / f64::from(n);
         let mut y = state.to_vector();
-        for _ in 0..n {
+        for i in 0..n {
             let k1 = derivative(mech, &y, tau)?;
             let k2 = derivative(mech, &(y + k1 * (dt / 2.0)), tau)?;
             let k3 = derivative(mech, &(y + k2 * (dt / 2.0)), tau)?;
             let k4 = derivative(mech, &(y + k3 * dt), tau)?;
             y += (k1 + (k2 + k3) * 2.0 + k4) * (dt / 6.0);
             renormalise(&mut y);
+            if i + 1 != n {
+                check_substep(inside, &y, dt * f64::from(i + 1))?;
+            }
         }
         let next = State::from_vector(&y);
         if !next.is_finite() {
@@ -237,6 +294,19 @@ impl DormandPrince {
         tau: &Vector6<f64>,
         h: f64,
     ) -> Result<(), IntegrationError> {
+        self.advance_within(mech, state, tau, h, &mut Anywhere)
+    }
+
+    /// [`DormandPrince::advance`], with `inside` checking the state after each accepted
+    /// step but the last.
+    pub fn advance_within(
+        &mut self,
+        mech: &Mechanism,
+        state: &mut State,
+        tau: &Vector6<f64>,
+        h: f64,
+        inside: &mut dyn Inside,
+    ) -> Result<(), IntegrationError> {
         let mut y = state.to_vector();
         let mut offset = 0.0;
         let mut step = if self.h_next > 0.0 {
@@ -289,6 +359,9 @@ impl DormandPrince {
             if err <= 1.0 {
                 y = y_new;
                 renormalise(&mut y);
+                if !last {
+                    check_substep(inside, &y, offset + dt)?;
+                }
                 k1 = if last { k7 } else { derivative(mech, &y, tau)? };
                 offset = if last { h } else { offset + dt };
                 // Remember the controller's proposal, not the truncated last step.
@@ -342,9 +415,24 @@ impl Integrator {
         tau: &Vector6<f64>,
         h: f64,
     ) -> Result<(), IntegrationError> {
+        self.advance_within(mech, state, tau, h, &mut Anywhere)
+    }
+
+    /// [`Integrator::advance`], with `inside` checking every state the interval reaches
+    /// before its end, so that whether a path leaves the workspace does not depend on how
+    /// long the caller's intervals are.
+    #[inline]
+    pub fn advance_within(
+        &mut self,
+        mech: &Mechanism,
+        state: &mut State,
+        tau: &Vector6<f64>,
+        h: f64,
+        inside: &mut dyn Inside,
+    ) -> Result<(), IntegrationError> {
         match self {
-            Integrator::Rk4(rk) => rk.advance(mech, state, tau, h),
-            Integrator::DormandPrince(dp) => dp.advance(mech, state, tau, h),
+            Integrator::Rk4(rk) => rk.advance_within(mech, state, tau, h, inside),
+            Integrator::DormandPrince(dp) => dp.advance_within(mech, state, tau, h, inside),
         }
     }
 }

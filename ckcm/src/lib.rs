@@ -25,7 +25,7 @@ pub use control::{
     ReferenceTerms,
 };
 pub use dynamics::{DynamicsError, DynamicsTerms, JointSpaceDynamics};
-pub use integrate::{DormandPrince, IntegrationError, Integrator, Rk4, State};
+pub use integrate::{DormandPrince, Inside, IntegrationError, Integrator, Rk4, State};
 pub use kinematics::{FkError, FkOptions, LEGS, LegGeometry, Mechanism, Pose};
 pub use params::{
     Friction, FrictionCurve, Geometry, Legs, ParamError, ParamProblem, Params, Platform,

@@ -89,3 +89,73 @@ fn state_with_one_non_finite_component_is_not_finite() {
         assert!(!s.is_finite(), "quaternion = {bad}");
     }
 }
+
+/// `advance_within` checks every state an interval reaches before its end, in order, and
+/// stops at the first refused one with its offset; checks that pass change nothing.
+#[test]
+fn states_inside_an_interval_are_checked_in_order() {
+    use ckcm::{DormandPrince, IntegrationError, Integrator, WorkspaceError};
+    let m = frictionless();
+    let tau = m.static_forces(&m.home()).unwrap() + Vector6::from_element(40.0);
+    let start = State::at_rest(m.home());
+    for mut integrator in [
+        Integrator::Rk4(Rk4 {
+            substeps: 8,
+            ..Rk4::default()
+        }),
+        Integrator::DormandPrince(DormandPrince {
+            h_next: 0.01,
+            ..DormandPrince::default()
+        }),
+    ] {
+        let mut plain = start;
+        integrator
+            .clone()
+            .advance(&m, &mut plain, &tau, 0.08)
+            .unwrap();
+        // Every state before the end, seen in order; the interval's result is the same.
+        let mut seen = Vec::new();
+        let mut checked = start;
+        integrator
+            .clone()
+            .advance_within(&m, &mut checked, &tau, 0.08, &mut |s: &State| {
+                seen.push(s.pose.p_world.z);
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(checked, plain, "{integrator:?}");
+        assert!(seen.len() >= 5, "{integrator:?}: {} states", seen.len());
+        assert!(seen.windows(2).all(|w| w[1] > w[0]), "{seen:?}");
+        assert!(*seen.last().unwrap() < plain.pose.p_world.z);
+        // The third state refused: the error gives its offset, and the state is unchanged.
+        let mut count = 0;
+        let mut refused = start;
+        let e = integrator
+            .advance_within(&m, &mut refused, &tau, 0.08, &mut |s: &State| {
+                count += 1;
+                if count == 3 {
+                    Err(WorkspaceError::BasePlane {
+                        joint: 1,
+                        z: s.pose.p_world.z,
+                    })
+                } else {
+                    Ok(())
+                }
+            })
+            .unwrap_err();
+        assert_eq!(refused, start);
+        match e {
+            IntegrationError::Outside {
+                offset,
+                cause: WorkspaceError::BasePlane { z, .. },
+            } => {
+                assert!(offset > 0.0 && offset < 0.08, "{offset}");
+                assert_eq!(z, seen[2]);
+                if let Integrator::Rk4(_) = integrator {
+                    assert_eq!(offset, 0.08 / 8.0 * 3.0);
+                }
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

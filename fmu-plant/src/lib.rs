@@ -10,8 +10,8 @@
 
 use ckcm::nalgebra::Vector6;
 use ckcm::{
-    DormandPrince, FrictionCurve, Integrator, LegGeometry, Mechanism, Params, Pose, Rk4, State,
-    Workspace,
+    DormandPrince, FrictionCurve, IntegrationError, Integrator, LegGeometry, Mechanism, Params,
+    Pose, Rk4, State, Workspace,
 };
 use fmu_core::values::{ByteReader, ByteWriter, Values};
 use fmu_core::{Causality, Model, ModelError, ModelResult, Shown, VarSpec, VarType, VrRun};
@@ -387,16 +387,24 @@ impl Model for CkcmPlant {
             .ok_or_else(|| ModelError::error("doStep before initialization"))?;
         let mut next = sim.state;
         let mut integrator = sim.integrator;
-        let advanced = integrator.advance(&sim.mechanism, &mut next, &force, h);
+        // Every substep's state is checked, not only the step's end: a leg that leaves its
+        // stroke and comes back within one long step is refused as within 1 ms steps.
+        let mut inside = |s: &State| sim.check(s).map(drop);
+        let advanced = integrator.advance_within(&sim.mechanism, &mut next, &force, h, &mut inside);
         let end = t + h;
         // The leg geometry stays where it is computed and is checked by reference. Moved
         // out through the check's Result it was copied (552 bytes) right before the outputs
         // read it, and those reads waited on the copy's stores.
         let legs = sim.mechanism.inverse_kinematics(&next.pose);
-        // The workspace is checked where the step ends; an integration failure happens
-        // somewhere inside it, so it gets no time of its own beyond the step's.
-        if let Err(e) = advanced {
-            return Err(refused(t, h, &force, format_args!("{e}")));
+        // An integration failure other than leaving the workspace happens somewhere inside
+        // the step, so it gets no time of its own beyond the step's.
+        match advanced {
+            Ok(()) => {}
+            Err(IntegrationError::Outside { offset, cause }) => {
+                let at = Shown(t + offset);
+                return Err(refused(t, h, &force, format_args!("at t = {at} s {cause}")));
+            }
+            Err(e) => return Err(refused(t, h, &force, format_args!("{e}"))),
         }
         if let Err(e) = sim.check_legs(&next, &legs) {
             return Err(refused(

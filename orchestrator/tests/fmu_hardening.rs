@@ -306,6 +306,62 @@ fn launched_platform_is_discarded_at_the_stroke_end() {
     assert!(last.iter().all(|l| *l <= 0.95), "{last:?}");
 }
 
+/// A leg that leaves its stroke and comes back within one long communication step is
+/// refused as it is within 1 ms steps, at the substep where it left: whether a path is
+/// refused does not depend on the master's step size, for either integrator.
+#[test]
+fn a_stroke_left_and_regained_within_one_step_is_refused() {
+    let plant = fmu("CkcmPlant.fmu");
+    let force = vrs(&plant, "force");
+    // Without friction these forces swing leg 1 below 0.4 m at t = 0.1 s and back above it
+    // by t = 0.2 s.
+    let forces = [-191.0, 187.5, -243.1, 345.3, -41.3, 152.8];
+    let start = |integrator: i32| {
+        let mut a = plant.instantiate("a", true).unwrap();
+        let names = ["viscous_friction", "coulomb_friction"];
+        a.set_real(&names.map(|n| vr(&plant, n)), &[0.0, 0.0])
+            .unwrap();
+        a.set_integer(&[vr(&plant, "integrator")], &[integrator])
+            .unwrap();
+        initialize(&mut a).unwrap();
+        a.set_real(&force, &forces).unwrap();
+        a
+    };
+    // In 1 ms steps the leg leaves at the end of the hundredth step.
+    let mut fine = start(1);
+    let mut k = 0;
+    while fine.do_step(k as f64 * 1e-3, 1e-3, true).is_ok() {
+        k += 1;
+        assert!(k < 200, "1 ms steps never left the stroke");
+    }
+    assert_eq!(k, 99);
+    for integrator in [1, 2] {
+        let mut long = start(integrator);
+        let (status, err) = failure(long.do_step(0.0, 0.2, true));
+        assert_eq!(status, Status::Discard, "integrator {integrator}: {err}");
+        assert!(err.contains("leg 1 has length 0.39"), "{err}");
+        assert!(err.contains("outside its stroke [0.4, 0.95] m"), "{err}");
+        assert_eq!(long.last_successful_time().unwrap(), 0.0);
+        if integrator == 1 {
+            // RK4's substeps are those of the 1 ms steps (rk4_max_step = 1 ms).
+            assert!(err.contains("at t = 0.1 s leg 1"), "{err}");
+        } else {
+            // An accepted step of Dormand–Prince ends where it ends: after 0.1 s and by
+            // the end of the step.
+            let at: f64 = err
+                .split("at t = ")
+                .nth(1)
+                .unwrap()
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            assert!(at > 0.1 && at < 0.2, "{err}");
+        }
+    }
+}
+
 /// With the stroke limits out of the way, the platform reaches the base plane.
 #[test]
 fn base_plane_is_a_workspace_limit() {
