@@ -953,9 +953,10 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 /// identifier and GUID, glue fields, exact length) and restores its payload into a new
 /// snapshot, whose pointer goes to `*state`. Every rejection names what is wrong.
 ///
-/// Unlike fmi2GetFMUstate's, this `FMUstate` is an output only (FMI 2.0 §2.1.8 has the
-/// function build a new copy of the state and hand back its pointer), so what `*state`
-/// held is never read: a master may pass an uninitialised variable.
+/// A live snapshot of this model in `*state` is overwritten and kept, as fmi2GetFMUstate
+/// does and as Reference-FMUs and fmpy expect; any other value (NULL, freed, made up, an
+/// uninitialised variable) is only compared against the live snapshots, never followed,
+/// and replaced by a new one.
 ///
 /// # Safety
 /// See the module's safety contract.
@@ -974,7 +975,18 @@ pub unsafe fn de_serialize_fmu_state<M: Model>(
             DecodeError::Invalid(message) => Failure::error(message),
             DecodeError::Model(e) => Failure::from(e),
         })?;
-        *slot = snap.into_raw(c.addr());
+        // A live snapshot of this model in `*slot` is reused, as fmi2GetFMUstate reuses
+        // one (fmpy passes the previous state for that): allocating beside it would leave
+        // it unreachable to a master that overwrites its handle, until fmi2FreeInstance.
+        // Any other value is overwritten: the standard does not ask callers to set
+        // `*FMUstate` before this call, so it may hold anything.
+        // SAFETY: the pointer in `*slot` is followed only if the registry lists it as a
+        // live snapshot (`from_ptr` checks before reading); the module contract keeps the
+        // reference exclusive.
+        match unsafe { Snapshot::<M>::from_ptr(*slot) } {
+            Ok(old) => *old = snap,
+            Err(_) => *slot = snap.into_raw(c.addr()),
+        }
         Ok(Status::Ok)
     };
     // SAFETY: `c` satisfies the module contract.

@@ -166,18 +166,24 @@ fn serialized_state_continues_bit_identically_in_a_fresh_instance() {
     let mut s = ptr::null_mut();
     assert_eq!(c.deserialize(&bytes, &mut s), Status::Ok);
     assert_eq!(c.serialize(s), bytes);
-    // FMUstate is an output only: a previous snapshot in it is neither read nor
-    // overwritten, a new one is made; both stay valid until freed.
-    let mut previous = s;
-    assert_eq!(c.deserialize(&bytes, &mut s), Status::Ok);
-    assert_ne!(s, previous);
-    assert_eq!(c.serialize(previous), bytes);
-    assert_eq!(c.free_state(&mut previous), Status::Ok);
-    assert_eq!(c.serialize(s), bytes);
+    // A live snapshot in FMUstate is reused, as fmi2GetFMUstate reuses one (and as fmpy's
+    // `deSerializeFMUstate(bytes, state)` expects): the same handle, now holding the
+    // deserialized state, and no second allocation left behind.
+    let mut other = ptr::null_mut();
+    assert_eq!(a.get_state(&mut other), Status::Ok);
+    let later = a.serialize(other);
+    assert_eq!(a.free_state(&mut other), Status::Ok);
+    assert_ne!(later, bytes);
+    let previous = s;
+    assert_eq!(c.deserialize(&later, &mut s), Status::Ok);
+    assert_eq!(s, previous);
+    assert_eq!(c.serialize(s), later);
     assert_eq!(c.free_state(&mut s), Status::Ok);
-    // Nor is a stale or uninitialised value read (this one would crash if it were).
+    // A stale or uninitialised value is not read (this one would crash if it were): a new
+    // snapshot is made.
     let mut junk = 0x1000 as Fmi2FmuState;
     assert_eq!(c.deserialize(&bytes, &mut junk), Status::Ok);
+    assert_ne!(junk, 0x1000 as Fmi2FmuState);
     assert_eq!(c.serialize(junk), bytes);
     assert_eq!(c.free_state(&mut junk), Status::Ok);
 }
