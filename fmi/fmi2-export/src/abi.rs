@@ -246,7 +246,8 @@ pub fn get_version<M>() -> *const c_char {
 /// Returns NULL for: `functions` NULL or without a logger (FMI 2.0 gives the FMU no other
 /// way to report errors, so this glue requires it; `allocateMemory`/`freeMemory` are not
 /// used, the model descriptions declare `canNotUseMemoryManagementFunctions="true"`, and
-/// `stepFinished` is unused as steps are synchronous); `instanceName` NULL or empty;
+/// `stepFinished` is unused as steps are synchronous); `instanceName` NULL, empty or only
+/// white space;
 /// `fmuType` other than fmi2CoSimulation; `fmuGUID` NULL or different from `M::GUID`; a
 /// panic in `M::new()`; `handles::MAX_LIVE` instances of this library alive already. Each
 /// case is logged with status fmi2Error when the logger is usable. `fmuResourceLocation`
@@ -286,6 +287,16 @@ pub unsafe fn instantiate<M: Model>(
     let name = unsafe { CStr::from_ptr(instance_name) }.to_owned();
     if name.is_empty() {
         return fail(&name, "instanceName is empty".to_owned());
+    }
+    if String::from_utf8_lossy(name.to_bytes()).trim().is_empty() {
+        return fail(
+            &name,
+            format!(
+                "instanceName {:?} is only white space; FMI 2.0 asks for at least one other \
+                 character",
+                String::from_utf8_lossy(name.to_bytes())
+            ),
+        );
     }
     if fmu_type != FMI2_CO_SIMULATION {
         return fail(

@@ -335,6 +335,20 @@ fn instantiate_rejects_bad_arguments_with_a_message() {
     assert!(c.is_null() && log.contains("instanceName is NULL"));
     let (c, log) = instantiate_raw(Some(&empty), FMI2_CO_SIMULATION, Some(&guid), false);
     assert!(c.is_null() && log.contains("instanceName is empty"));
+    // FMI 2.0 §2.1.5: at least one character that is not white space.
+    for blank in [" ", "   ", "\t\n", "\u{a0}"] {
+        let blank = CString::new(blank).unwrap();
+        let (c, log) = instantiate_raw(Some(&blank), FMI2_CO_SIMULATION, Some(&guid), false);
+        assert!(
+            c.is_null() && log.contains("is only white space"),
+            "{blank:?}"
+        );
+    }
+    let padded = CString::new(" a ").unwrap();
+    let (c, _) = instantiate_raw(Some(&padded), FMI2_CO_SIMULATION, Some(&guid), false);
+    assert!(!c.is_null());
+    // SAFETY: a live instance of this model, freed once.
+    unsafe { abi::free_instance::<Oscillator>(c) };
     for r in log.records() {
         assert_eq!(
             (r.status, r.category.as_str(), r.format.as_str()),
