@@ -220,6 +220,38 @@ fn deserialized_state_with_an_out_of_range_parameter_is_refused() {
     );
 }
 
+/// A forged state (edited, then sealed with a fresh checksum) that holds a non-finite input
+/// is refused on deserialization, naming the input: fmi2SetReal would have refused it.
+#[test]
+fn deserialized_state_with_a_non_finite_input_is_refused() {
+    let plant = fmu("CkcmPlant.fmu");
+    let mut a = plant.instantiate("a", true).unwrap();
+    initialize(&mut a).unwrap();
+    let marker = 1_234.567_890_123_f64;
+    a.set_real(&[vr(&plant, "force[2]")], &[marker]).unwrap();
+    let s = a.get_fmu_state().unwrap();
+    let bytes = a.serialize_fmu_state(&s).unwrap();
+    let body = bytes.len() - 4;
+    let at = (0..body - 8)
+        .find(|&i| bytes[i..i + 8] == marker.to_le_bytes())
+        .expect("the force is in the state");
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mut forged = bytes.clone();
+        forged[at..at + 8].copy_from_slice(&bad.to_le_bytes());
+        let crc = crc32fast::hash(&forged[..body]);
+        forged[body..].copy_from_slice(&crc.to_le_bytes());
+        let mut b = plant.instantiate("b", true).unwrap();
+        let err = b.deserialize_fmu_state(&forged).unwrap_err().to_string();
+        assert!(
+            err.contains(&format!("the state holds force[2] = {bad} is not finite")),
+            "{err}"
+        );
+    }
+    // The state as saved is accepted.
+    let mut b = plant.instantiate("b", true).unwrap();
+    b.deserialize_fmu_state(&bytes).unwrap();
+}
+
 /// Issue 11, defect 13: every single-byte corruption of a serialized plant and controller
 /// state is refused; none decodes into a state that steps to NaN with fmi2OK.
 #[test]

@@ -32,10 +32,10 @@ use std::collections::BTreeMap;
 use std::ffi::c_void;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
-use crate::instance::{Glue, Tag};
+use crate::instance::{Glue, Tag, time_tolerance};
 use crate::state::FmiState;
 use fmi2_sys::Status;
-use fmu_core::{Model, check_ranges};
+use fmu_core::{Model, Shown, check_ranges};
 
 /// Magic bytes at the start of every serialized FMU state.
 pub const SERIALIZED_MAGIC: [u8; 8] = *b"FMI2STAT";
@@ -433,6 +433,23 @@ fn decode_glue(state: u32, flags: u32, step_status: u32, reals: [f64; 5]) -> Res
     }
     if glue.first_step.is_some_and(|h| h <= 0.0) {
         return Err(format!("first step size {first} is not positive"));
+    }
+    // What fmi2SetupExperiment and fmi2DoStep let no state reach.
+    if let Some(stop) = glue.stop_time {
+        if stop < start_time {
+            return Err(format!(
+                "stop time {} is before the start time {}",
+                Shown(stop),
+                Shown(start_time)
+            ));
+        }
+        if time > stop + time_tolerance(stop) {
+            return Err(format!(
+                "time {} is beyond the stop time {}",
+                Shown(time),
+                Shown(stop)
+            ));
+        }
     }
     Ok(glue)
 }

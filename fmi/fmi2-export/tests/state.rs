@@ -354,6 +354,14 @@ fn corrupt_buffers_are_rejected_with_a_reason() {
     let mut time = body.clone();
     time[at + 12 + 24..at + 12 + 32].copy_from_slice(&f64::NAN.to_le_bytes());
     expect(&sealed(time), "a time field is not finite");
+    // Times no call sequence reaches: a stop time before the start, a time past the stop.
+    let real = |i: usize| at + 12 + 8 * i;
+    let mut stop = body.clone();
+    stop[real(1)..real(1) + 8].copy_from_slice(&(-1.0f64).to_le_bytes());
+    expect(&sealed(stop), "stop time -1 is before the start time 0");
+    let mut late = body.clone();
+    late[real(3)..real(3) + 8].copy_from_slice(&11.0f64.to_le_bytes());
+    expect(&sealed(late), "time 11 is beyond the stop time 10");
     let mut payload = body.clone();
     payload.truncate(payload.len() - 8);
     let p = at + 12 + 40;

@@ -32,12 +32,20 @@ pub struct VarSpec {
 }
 
 /// The first variable of `M` whose current value lies outside its declared range, as the
-/// message of [`VarSpec::check_range`]. The glue calls it where values arrive without a
-/// set call: at fmi2ExitInitializationMode and on fmi2DeSerializeFMUstate.
+/// message of [`VarSpec::check_range`], or a Real input or parameter that is not finite
+/// (which fmi2SetReal refuses). The glue calls it where values arrive without a set call:
+/// at fmi2ExitInitializationMode and on fmi2DeSerializeFMUstate.
 pub fn check_ranges<M: Model>(model: &M) -> Result<(), String> {
     for spec in M::VARIABLES {
         let value = match spec.var_type {
-            VarType::Real => model.get_real(spec.value_reference),
+            VarType::Real => {
+                let x = model.get_real(spec.value_reference);
+                let settable = matches!(spec.causality, Causality::Input | Causality::Parameter);
+                if settable && !x.is_finite() {
+                    return Err(format!("{} = {} is not finite", spec.name, Shown(x)));
+                }
+                x
+            }
             VarType::Integer | VarType::Enumeration => {
                 f64::from(model.get_integer(spec.value_reference))
             }
