@@ -93,17 +93,22 @@ unsafe fn guard<M: Model>(
 fn refuse_call<M: Model>(inst: &mut Instance<M>, function: Function) -> Fmi2Status {
     let state = inst.glue.state;
     let hint = function.illegal_call_hint();
-    let cause = match inst.glue.failed_in {
-        Some(f) if state == FmiState::Terminated => format!(
-            " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
-            f.name()
+    // After an fmi2Error the instance is in Terminated, whose calls are those FMI 2.0 allows
+    // in its error state; it is named by the standard's name, with the call that failed.
+    let (name, cause) = match inst.glue.failed_in {
+        Some(f) if state == FmiState::Terminated => (
+            "Error".to_owned(),
+            format!(
+                " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
+                f.name()
+            ),
         ),
-        _ => String::new(),
+        _ => (state.to_string(), String::new()),
     };
     inst.log(
         Status::Error,
         function,
-        &format!("illegal call sequence in state {state}{cause}{hint}"),
+        &format!("illegal call sequence in state {name}{cause}{hint}"),
     );
     inst.escalate(Status::Error, function);
     Status::Error.into()

@@ -140,8 +140,9 @@ pub(crate) struct Glue {
     /// A variable was set since `initialize` last ran (only matters in InitializationMode).
     pub(crate) dirty: bool,
     /// The function whose fmi2Error moved the instance to Terminated, so that later
-    /// illegal calls say why the instance is there (a master that never called
-    /// fmi2Terminate would otherwise read "in state Terminated" as a bug). Not serialized.
+    /// illegal calls name the state Error and say why the instance is there (a master that
+    /// never called fmi2Terminate would otherwise read "in state Terminated" as a bug). Not
+    /// serialized.
     pub(crate) failed_in: Option<Function>,
 }
 

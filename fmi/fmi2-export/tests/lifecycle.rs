@@ -732,8 +732,9 @@ fn free_instance_releases_everything() {
 
 #[test]
 fn calls_after_an_error_name_the_function_that_failed() {
-    // An illegal call in Instantiated escalates to Terminated; the next illegal call says
-    // which call put the instance there.
+    // An illegal call in Instantiated escalates to Terminated, which FMI 2.0 calls the
+    // error state when an error put the instance there; the next illegal call names that
+    // state and the call.
     let fmu = Fmu::with_logging("after-error", true);
     assert_eq!(fmu.do_step(0.0, 0.1), Status::Error);
     assert_eq!(fmu.state(), Some(FmiState::Terminated));
@@ -741,7 +742,7 @@ fn calls_after_an_error_name_the_function_that_failed() {
     assert_eq!(fmu.setup(0.0, None), Status::Error);
     assert!(
         fmu.log.contains(
-            "fmi2SetupExperiment: illegal call sequence in state Terminated (entered when \
+            "fmi2SetupExperiment: illegal call sequence in state Error (entered when \
              fmi2DoStep returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)"
         ),
         "{:?}",
