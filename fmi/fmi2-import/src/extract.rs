@@ -28,12 +28,14 @@ impl ExtractionDir {
         REAP.call_once(|| {
             reap_stale_extraction_dirs(&std::env::temp_dir());
         });
+        // The list is held while the folder is made, so that a signal handler's
+        // `remove_extraction_dirs` sees every folder that exists: made before the lock,
+        // one could appear between its removals and the exit, and stay behind.
+        let mut live = LIVE.lock().unwrap_or_else(PoisonError::into_inner);
         let dir = tempfile::Builder::new()
             .prefix(&format!("{EXTRACTION_PREFIX}{}-", std::process::id()))
             .tempdir()?;
-        LIVE.lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push(dir.path().to_path_buf());
+        live.push(dir.path().to_path_buf());
         Ok(ExtractionDir(dir))
     }
 
@@ -53,11 +55,17 @@ impl Drop for ExtractionDir {
 /// Removes every extraction folder of this process now, for a signal handler that is about
 /// to exit the process (the FMUs' libraries stay mapped; nothing reads the files again).
 /// Returns how many folders were removed.
+///
+/// The list stays locked until the process ends, so no other thread makes a folder after
+/// these are gone: opening an FMU, or dropping one, blocks from here on.
 pub fn remove_extraction_dirs() -> usize {
     let live = LIVE.lock().unwrap_or_else(PoisonError::into_inner);
-    live.iter()
+    let removed = live
+        .iter()
         .filter(|p| std::fs::remove_dir_all(p).is_ok())
-        .count()
+        .count();
+    std::mem::forget(live);
+    removed
 }
 
 /// Removes extraction folders in `temp` whose owning process is no longer running; returns
