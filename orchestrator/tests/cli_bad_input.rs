@@ -199,6 +199,34 @@ fn a_scenario_or_sweep_file_given_as_an_fmu_names_its_command() {
     }
 }
 
+/// `info` and `simulate` given a named pipe or an endless device fail at once, naming it:
+/// neither is opened or read in search of a scenario file.
+#[cfg(unix)]
+#[test]
+fn a_pipe_or_device_given_as_an_fmu_fails_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.fmu");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let csv = dir.path().join("result.csv");
+    for (file, kind) in [
+        (fifo.as_path(), "a named pipe"),
+        (Path::new("/dev/zero"), "a device"),
+    ] {
+        for verb in ["info", "simulate"] {
+            fails(&[verb.as_ref(), file.as_os_str()], &csv).says_once(&format!(
+                "{} is not a zip archive: it is {kind}",
+                file.display()
+            ));
+        }
+    }
+}
+
 #[test]
 fn a_zip_without_model_description() {
     let dir = tempfile::tempdir().unwrap();

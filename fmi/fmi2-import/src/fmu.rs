@@ -15,6 +15,28 @@ use fmi2_sys::{FMI_VERSION, TYPES_PLATFORM};
 use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION};
 use libloading::Library;
 
+/// What `path` is when it exists but is no regular file, folder or link to one.
+fn special_file_kind(path: &Path) -> Option<&'static str> {
+    let file_type = std::fs::metadata(path).ok()?.file_type();
+    if file_type.is_file() || file_type.is_dir() {
+        return None;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if file_type.is_fifo() {
+            return Some("a named pipe (FIFO)");
+        }
+        if file_type.is_socket() {
+            return Some("a socket");
+        }
+        if file_type.is_char_device() || file_type.is_block_device() {
+            return Some("a device");
+        }
+    }
+    Some("no regular file")
+}
+
 /// Why the file at `path` is no zip archive, from its first bytes where they tell what it is
 /// (a user who gives the model's library, its modelDescription.xml or a scenario file learns
 /// so), else the zip reader's own reason.
@@ -91,6 +113,14 @@ impl Fmu {
         if path.is_dir() {
             let unpacked = path.join("modelDescription.xml").is_file();
             return Err(ImportError::Folder { path, unpacked });
+        }
+        // Opening a named pipe waits for a writer, possibly forever; a zip reader needs to
+        // seek, which no pipe, socket or device offers.
+        if let Some(kind) = special_file_kind(&path) {
+            return Err(ImportError::NotZip {
+                detail: format!("it is {kind}; an FMU is a regular file the reader can seek in"),
+                path,
+            });
         }
         let file = File::open(&path).map_err(|source| match source.kind() {
             std::io::ErrorKind::NotFound => ImportError::NotFound { path: path.clone() },

@@ -91,6 +91,34 @@ fn not_a_zip_says_what_the_file_is() {
     }
 }
 
+/// A named pipe or a device given as an FMU is refused at once: opening a pipe would wait
+/// for a writer, and a device such as /dev/zero never ends.
+#[cfg(unix)]
+#[test]
+fn a_pipe_or_device_is_refused_without_reading_it() {
+    let dir = temp();
+    let fifo = dir.path().join("pipe.fmu");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    for (path, kind) in [
+        (fifo.as_path(), "a named pipe (FIFO)"),
+        (Path::new("/dev/zero"), "a device"),
+    ] {
+        let err = open_err(path);
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "{} is not a zip archive: it is {kind}; an FMU is a regular file the reader can \
+                 seek in",
+                path.display()
+            )
+        );
+    }
+}
+
 /// A folder, unpacked FMU or not, is named as a folder rather than as a damaged archive.
 #[test]
 fn a_folder_is_named_as_one() {
