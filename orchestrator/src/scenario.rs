@@ -603,11 +603,16 @@ impl Ctx<'_> {
         span: std::ops::Range<usize>,
         message: impl Into<String>,
     ) -> Result<T, ScenarioError> {
-        Err(ScenarioError::new(
+        Err(self.error(span, message))
+    }
+
+    /// The problem at `span`, with its line.
+    fn error(&self, span: std::ops::Range<usize>, message: impl Into<String>) -> ScenarioError {
+        ScenarioError::new(
             self.file,
             (span.end > 0).then(|| line_of(self.text, span.start)),
             message,
-        ))
+        )
     }
 
     /// The value, or `None` with the problem kept for the final report.
@@ -1149,7 +1154,8 @@ pub fn describe_update(u: &UpdateSettings) -> String {
     )
 }
 
-/// Validates `[memory.update]` for trials of `steps` samples of `h` s.
+/// Validates `[memory.update]` for trials of `steps` samples of `h` s. Every bad entry is
+/// reported: all but the last are kept in `cx`, the last is returned.
 fn parse_update(
     cx: &Ctx<'_>,
     u: &Spanned<RawUpdate>,
@@ -1157,37 +1163,42 @@ fn parse_update(
     h: f64,
 ) -> Result<UpdateSettings, ScenarioError> {
     let r = u.get_ref();
+    let mut errors = Vec::new();
+    let mut keep = |e: ScenarioError| errors.push(e);
     let mut settings = UpdateSettings::default();
-    let finite = |v: &Option<Spanned<f64>>, name: &str, default: f64| match v {
-        None => Ok(default),
-        Some(x) if x.get_ref().is_finite() => Ok(*x.get_ref()),
-        Some(x) => cx.err(
-            x.span(),
-            format!(
-                "memory.update.{name} = {} must be a finite number",
-                Shown(*x.get_ref())
-            ),
-        ),
+    let mut finite = |v: &Option<Spanned<f64>>, name: &str, default: f64| match v {
+        None => default,
+        Some(x) if x.get_ref().is_finite() => *x.get_ref(),
+        Some(x) => {
+            keep(cx.error(
+                x.span(),
+                format!(
+                    "memory.update.{name} = {} must be a finite number",
+                    Shown(*x.get_ref())
+                ),
+            ));
+            default
+        }
     };
-    settings.forgetting = finite(&r.forgetting, "forgetting", 1.0)?;
-    settings.gain = finite(&r.gain, "gain", 1.0)?;
+    settings.forgetting = finite(&r.forgetting, "forgetting", 1.0);
+    settings.gain = finite(&r.gain, "gain", 1.0);
     if let Some(lead) = &r.lead {
         let l = *lead.get_ref();
         if l < 0 {
-            return cx.err(
+            keep(cx.error(
                 lead.span(),
                 format!("memory.update.lead = {l} must not be negative (samples of phase lead)"),
-            );
-        }
-        if l as u64 >= steps as u64 {
-            return cx.err(
+            ));
+        } else if l as u64 >= steps as u64 {
+            keep(cx.error(
                 lead.span(),
                 format!(
                     "memory.update.lead = {l} must be less than the {steps} samples of a trial"
                 ),
-            );
+            ));
+        } else {
+            settings.lead = l as usize;
         }
-        settings.lead = l as usize;
     }
     match &r.filter {
         None => {
@@ -1197,65 +1208,80 @@ fn parse_update(
                 .map(|o| o.span())
                 .or(r.cutoff.as_ref().map(|c| c.span()))
             {
-                return cx.err(
+                keep(cx.error(
                     span,
                     "memory.update: order and cutoff need filter = \"butterworth\"",
-                );
+                ));
             }
         }
         Some(f) if f.get_ref() == "butterworth" => {
-            let Some(order) = &r.order else {
-                return cx.err(
+            if r.order.is_none() {
+                keep(cx.error(
                     f.span(),
                     "memory.update: filter = \"butterworth\" needs order (>= 1)",
-                );
-            };
-            let Some(cutoff) = &r.cutoff else {
-                return cx.err(
+                ));
+            }
+            if r.cutoff.is_none() {
+                keep(cx.error(
                     f.span(),
                     "memory.update: filter = \"butterworth\" needs cutoff (Hz)",
-                );
-            };
-            let o = *order.get_ref();
-            if !(1..=ckcm::learning::MAX_ORDER as i64).contains(&o) {
-                return cx.err(
-                    order.span(),
-                    format!(
-                        "memory.update.order = {o} must be between 1 and {}",
-                        ckcm::learning::MAX_ORDER
-                    ),
-                );
+                ));
             }
-            let fc = *cutoff.get_ref();
-            let nyquist = 0.5 / h;
-            if !(fc.is_finite() && fc > 0.0 && fc < nyquist) {
-                return cx.err(
-                    cutoff.span(),
-                    format!("memory.update.cutoff = {fc} Hz must lie strictly between 0 and the Nyquist frequency 1/(2·step_size) = {nyquist} Hz"),
-                );
-            }
-            if steps <= 2 * o as usize {
-                return cx.err(
-                    order.span(),
-                    format!("memory.update: a zero-phase filter of order {o} needs more than {} samples per trial, there are {steps}", 2 * o),
-                );
-            }
-            settings.filter = Some(LowPass {
-                order: o as usize,
-                cutoff_hz: fc,
+            let order = r.order.as_ref().and_then(|order| {
+                let o = *order.get_ref();
+                if !(1..=ckcm::learning::MAX_ORDER as i64).contains(&o) {
+                    keep(cx.error(
+                        order.span(),
+                        format!(
+                            "memory.update.order = {o} must be between 1 and {}",
+                            ckcm::learning::MAX_ORDER
+                        ),
+                    ));
+                    None
+                } else if steps <= 2 * o as usize {
+                    keep(cx.error(
+                        order.span(),
+                        format!("memory.update: a zero-phase filter of order {o} needs more than {} samples per trial, there are {steps}", 2 * o),
+                    ));
+                    None
+                } else {
+                    Some(o as usize)
+                }
             });
+            let cutoff = r.cutoff.as_ref().and_then(|cutoff| {
+                let fc = *cutoff.get_ref();
+                let nyquist = 0.5 / h;
+                if fc.is_finite() && fc > 0.0 && fc < nyquist {
+                    Some(fc)
+                } else {
+                    keep(cx.error(
+                        cutoff.span(),
+                        format!("memory.update.cutoff = {fc} Hz must lie strictly between 0 and the Nyquist frequency 1/(2·step_size) = {nyquist} Hz"),
+                    ));
+                    None
+                }
+            });
+            if let (Some(order), Some(cutoff_hz)) = (order, cutoff) {
+                settings.filter = Some(LowPass { order, cutoff_hz });
+            }
         }
         Some(f) => {
-            return cx.err(
+            keep(cx.error(
                 f.span(),
                 format!(
                     "memory.update.filter {:?} is unknown: the only filter is \"butterworth\"",
                     f.get_ref()
                 ),
-            );
+            ));
         }
     }
-    Ok(settings)
+    match errors.pop() {
+        None => Ok(settings),
+        Some(last) => {
+            cx.problems.borrow_mut().extend(errors);
+            Err(last)
+        }
+    }
 }
 
 fn parse_trajectory(
@@ -1936,6 +1962,33 @@ mod tests {
             assert_eq!(err.line, Some(line), "{body}: {err}");
             assert!(err.message.contains(needle), "{body}: {err}");
             assert!(err.to_string().starts_with("s.toml:"), "{err}");
+        }
+    }
+
+    /// Every bad entry of one `[memory.update]` is named, in line order, as in the rest of
+    /// a scenario file.
+    #[test]
+    fn every_bad_memory_update_entry_is_named() {
+        let body = "filter = \"butterworth\"\norder = 0\ncutoff = 600.0\nlead = -1\nforgetting = nan\ngain = inf\n";
+        let err = parse_update(body).expect_err(body);
+        let lines: Vec<_> = std::iter::once(&err)
+            .chain(&err.more)
+            .map(|e| (e.line, e.message.clone()))
+            .collect();
+        let expected = [
+            (14, "memory.update.order = 0 must be between 1 and"),
+            (
+                15,
+                "memory.update.cutoff = 600 Hz must lie strictly between 0 and",
+            ),
+            (16, "memory.update.lead = -1 must not be negative"),
+            (17, "memory.update.forgetting = NaN must be a finite number"),
+            (18, "memory.update.gain = inf must be a finite number"),
+        ];
+        assert_eq!(lines.len(), expected.len(), "{lines:?}");
+        for ((line, message), (l, needle)) in lines.iter().zip(expected) {
+            assert_eq!(*line, Some(l), "{lines:?}");
+            assert!(message.starts_with(needle), "{message}");
         }
     }
 
