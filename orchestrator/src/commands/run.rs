@@ -85,25 +85,88 @@ fn kept_trials_told(
     text: &str,
 ) -> anyhow::Error {
     let write_failed = matches!(e, CampaignError::Output(_));
-    let kept = match completed_trials(out, scenario, text) {
-        Some(n) if n > 0 && (write_failed || matches!(e, CampaignError::Master(_))) => n,
-        _ => return e.into(),
+    let fmu_failed = matches!(e, CampaignError::Master(_));
+    let completed = completed_trials(out, scenario, text);
+    let Some(kept) = kept_after(out, completed, write_failed, fmu_failed) else {
+        return e.into();
     };
     // The whole chain in one message, so that the kept trials come after the reason
     // (`main` skips causes the message already holds).
     let mut message = crate::describe(&e);
-    let trials = match kept {
-        1 => "trial 0 is".to_owned(),
-        n => format!("trials 0–{} are", n - 1),
+    let (trials, goes_on) = match kept {
+        Kept::NoneYet => ("no trial is complete".to_owned(), "starts the campaign"),
+        Kept::Trials(1) => ("trial 0 is kept".to_owned(), "continues the campaign"),
+        Kept::Trials(n) => (
+            format!("trials 0–{} are kept", n - 1),
+            "continues the campaign",
+        ),
     };
-    message.push_str(&format!("\n{trials} kept in {}", out.display()));
+    message.push_str(&format!("\n{trials} in {}", out.display()));
     if write_failed {
         message.push_str(&format!(
             "; once the write can succeed (free disk space, for one), `orchestrator run {} \
-             --out {} --resume` continues the campaign",
+             --out {} --resume` {goes_on}",
             file.display(),
             out.display()
         ));
     }
     StoppedPartWay { message, source: e }.into()
+}
+
+/// What a run stopped by a failed write or an FMU can say it left in `out`.
+#[derive(Debug, PartialEq)]
+enum Kept {
+    /// Trials 0..n, committed (n > 0).
+    Trials(usize),
+    /// Nothing yet, in a folder this run began: no longer empty, so only `--resume` starts
+    /// the campaign again there.
+    NoneYet,
+}
+
+/// `completed`: the trials the folder's progress records for this scenario (`None` when it
+/// holds no progress, or another campaign's). After an FMU's failure only kept trials are
+/// worth naming; after a failed write, a first trial that failed is too.
+fn kept_after(
+    out: &Path,
+    completed: Option<usize>,
+    write_failed: bool,
+    fmu_failed: bool,
+) -> Option<Kept> {
+    match completed {
+        Some(n) if n > 0 && (write_failed || fmu_failed) => Some(Kept::Trials(n)),
+        None if write_failed
+            && !out.join("progress.toml").exists()
+            && out.join("scenario.toml").is_file() =>
+        {
+            Some(Kept::NoneYet)
+        }
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A failed first write is told only in a folder this run began (its scenario.toml and
+    /// no progress): not where nothing was written, nor over another campaign's progress.
+    #[test]
+    fn a_failed_first_write_is_told_only_in_a_folder_this_run_began() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path();
+        assert_eq!(kept_after(out, None, true, false), None, "an empty folder");
+        std::fs::write(out.join("scenario.toml"), "").unwrap();
+        assert_eq!(kept_after(out, None, true, false), Some(Kept::NoneYet));
+        assert_eq!(kept_after(out, None, false, true), None, "an FMU's failure");
+        assert_eq!(kept_after(out, Some(0), true, false), None);
+        std::fs::write(out.join("progress.toml"), "").unwrap();
+        assert_eq!(
+            kept_after(out, None, true, false),
+            None,
+            "another campaign's progress (a --force run's first trial)"
+        );
+        assert_eq!(kept_after(out, Some(3), true, false), Some(Kept::Trials(3)));
+        assert_eq!(kept_after(out, Some(3), false, true), Some(Kept::Trials(3)));
+        assert_eq!(kept_after(out, Some(3), false, false), None);
+    }
 }
