@@ -54,7 +54,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub fmu_logging: bool,
     /// Start a new campaign in an --out folder that already holds one, replacing it (the
-    /// old files are removed once the new first trial has succeeded).
+    /// old files are removed once the new first trial has succeeded; the names a campaign
+    /// writes are replaced whoever wrote them, other files are kept).
     #[arg(long, conflicts_with = "resume")]
     pub force: bool,
     /// Refuse to start a campaign estimated to need more memory than this, in MiB

@@ -595,3 +595,36 @@ fn a_closed_console_does_not_stop_a_run() {
     assert_eq!(status.code(), Some(0));
     assert_same_tree(&whole, &out, "with a closed console");
 }
+
+/// A scenario file that is itself `OUT/scenario.toml` is refused as --out, with or without
+/// --force or --resume, and left as it was: the campaign would replace it with its copy.
+/// Once a campaign began there, resuming it from that file works.
+#[test]
+fn the_scenario_file_is_never_the_campaigns_own_copy() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let own = tmp.path().join("own");
+    std::fs::create_dir(&own).unwrap();
+    let inside = own.join("scenario.toml");
+    std::fs::copy(&s, &inside).unwrap();
+    let before = tree(&own);
+    for args in [&[][..], &["--force"], &["--resume"]] {
+        let o = run(&inside, &own, args);
+        assert!(!o.status.success(), "{args:?}");
+        let err = stderr(&o);
+        assert!(
+            err.contains(&format!(
+                "{} is the scenario file itself, and a campaign in {} writes its own \
+                 scenario.toml there: choose another --out",
+                inside.display(),
+                own.display()
+            )),
+            "{args:?}: {err}"
+        );
+        assert_eq!(tree(&own), before, "{args:?} changed the folder");
+    }
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let o = run(&out.join("scenario.toml"), &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -33,6 +33,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let out_dir = args.out.unwrap_or_else(|| {
         PathBuf::from("results").join(args.scenario.file_stem().unwrap_or_default())
     });
+    refuse_to_overwrite_the_scenario(&args.scenario, &out_dir)?;
     let opts = CampaignOptions {
         out_dir: out_dir.clone(),
         resume: args.resume,
@@ -111,6 +112,27 @@ fn kept_trials_told(
         ));
     }
     StoppedPartWay { message, source: e }.into()
+}
+
+/// A new campaign writes `OUT/scenario.toml`, and with `--force` (or `--resume` where no
+/// campaign has begun) first moves that name aside and removes it: when that is the scenario
+/// file itself, the user's file would be replaced by the campaign's copy. Resuming a
+/// campaign begun there (it has a `progress.toml`) is what the campaign-folder hint
+/// suggests, and writes only the same text again.
+fn refuse_to_overwrite_the_scenario(scenario: &Path, out: &Path) -> Result<()> {
+    let saved = out.join("scenario.toml");
+    let same = match (scenario.canonicalize(), saved.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    anyhow::ensure!(
+        !same || out.join("progress.toml").exists(),
+        "{} is the scenario file itself, and a campaign in {} writes its own scenario.toml \
+         there: choose another --out (by default results/<scenario name>/)",
+        saved.display(),
+        out.display()
+    );
+    Ok(())
 }
 
 /// What a run stopped by a failed write or an FMU can say it left in `out`.
