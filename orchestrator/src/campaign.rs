@@ -364,8 +364,16 @@ fn what_differs(dir: &Path, scenario: &Scenario, text: &str) -> String {
                 replaced since it began)"
             .into();
     }
-    // Lines with text, numbered as in the file: a blank line added or removed above the edit
-    // does not hide it.
+    format!(
+        "it holds a campaign of a different scenario: {}",
+        first_difference(&theirs, &ours, "scenario.toml", "this scenario")
+    )
+}
+
+/// Where a folder's saved copy `theirs` (its file `file`) first differs from `ours` (`this`
+/// names it), by lines with text numbered as in the file: a blank line added or removed
+/// above the edit does not hide it.
+pub(crate) fn first_difference(theirs: &str, ours: &str, file: &str, this: &str) -> String {
     let text_lines = |t: &str| -> Vec<(usize, String)> {
         t.lines()
             .enumerate()
@@ -373,26 +381,22 @@ fn what_differs(dir: &Path, scenario: &Scenario, text: &str) -> String {
             .map(|(i, l)| (i + 1, l.trim().to_owned()))
             .collect()
     };
-    let (theirs, ours) = (text_lines(&theirs), text_lines(&ours));
+    let (theirs, ours) = (text_lines(theirs), text_lines(ours));
     let n = theirs
         .iter()
         .zip(&ours)
         .take_while(|(a, b)| a.1 == b.1)
         .count();
     let line = match theirs.get(n) {
-        Some((i, l)) => format!("line {i} of its scenario.toml reads `{l}`"),
-        None if n < ours.len() => "its scenario.toml ends".to_owned(),
-        None => {
-            return "it holds a campaign of a different scenario: its scenario.toml differs \
-                    from this one in blank lines or spaces only"
-                .into();
-        }
+        Some((i, l)) => format!("line {i} of its {file} reads `{l}`"),
+        None if n < ours.len() => format!("its {file} ends"),
+        None => return format!("its {file} differs from this one in blank lines or spaces only"),
     };
     let ours = match ours.get(n) {
         Some((_, l)) => format!("`{l}`"),
         None => "nothing more".to_owned(),
     };
-    format!("it holds a campaign of a different scenario: {line}, where this scenario has {ours}")
+    format!("{line}, where {this} has {ours}")
 }
 
 #[derive(Debug, serde::Deserialize)]

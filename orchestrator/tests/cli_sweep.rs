@@ -632,6 +632,22 @@ fn a_resumed_sweep_refuses_cases_of_other_fmus_or_another_base() {
     for ((name, want), (_, have)) in reference.iter().zip(results(&out).iter()) {
         assert!(want == have, "{name} differs after the last resume");
     }
+
+    // The sweep file edited (a comment counts): the first line that differs is named.
+    let text = fs::read_to_string(&sweep).unwrap();
+    let first = text.lines().find(|l| !l.trim().is_empty()).unwrap().trim();
+    fs::write(
+        &sweep,
+        text.replacen(first, &format!("{first}  # edited"), 1),
+    )
+    .unwrap();
+    resume(&sweep, &out).fails(&[
+        "it holds a different sweep: line",
+        &format!("of its sweep.toml reads `{first}`, where"),
+        &format!("has `{first}  # edited`; cannot resume"),
+    ]);
+    fs::remove_file(out.join("sweep.toml")).unwrap();
+    resume(&sweep, &out).fails(&["it holds no sweep (no sweep.toml); cannot resume"]);
 }
 
 #[test]

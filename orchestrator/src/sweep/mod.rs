@@ -549,10 +549,24 @@ pub fn run_sweep(spec: &SweepSpec, opts: &SweepOptions) -> Result<Vec<usize>, Sw
         }
         match fs::read_to_string(&stamp) {
             Ok(t) if t == spec.text => {}
-            _ => {
+            saved => {
+                // Any edit counts, comments and spaces too: the folder's sweep.toml is the
+                // sweep file as it began.
+                let what = match saved {
+                    Ok(t) => format!(
+                        "it holds a different sweep: {}",
+                        crate::campaign::first_difference(
+                            &t,
+                            &spec.text,
+                            "sweep.toml",
+                            &spec.source.display().to_string()
+                        )
+                    ),
+                    Err(_) => "it holds no sweep (no sweep.toml)".to_owned(),
+                };
                 return Err(SweepError::Dir {
                     dir: out.clone(),
-                    message: "it holds no sweep, or a different one; cannot resume".into(),
+                    message: format!("{what}; cannot resume"),
                 });
             }
         }
