@@ -1542,6 +1542,13 @@ fn parameter_settings(
             ),
         );
     }
+    // Whether it can be set at all comes first: an output given one value is not a size
+    // mismatch.
+    for v in &vars {
+        if let Err(message) = settable(v) {
+            return cx.err(key.span(), message);
+        }
+    }
     let values: Vec<&toml::Value> = match value.get_ref() {
         toml::Value::Array(items) => items.iter().collect(),
         single => vec![single],
@@ -1558,9 +1565,6 @@ fn parameter_settings(
     }
     let mut out = Vec::new();
     for (v, x) in vars.iter().zip(values) {
-        if let Err(message) = settable(v) {
-            return cx.err(key.span(), message);
-        }
         if let toml::Value::Table(table) = x {
             let (base, step) = per_trial_values(cx, v, value.span(), table, trials)?;
             out.push(Setting {
@@ -2000,6 +2004,19 @@ mod tests {
         Scenario::parse(&text, Path::new("s.toml"), |_| {
             ModelDescription::parse(MD).map_err(|e| e.to_string())
         })
+    }
+
+    /// A value for an output is refused as such, whatever its size.
+    #[test]
+    fn an_output_given_a_value_is_named_as_an_output() {
+        for value in ["1.0", "[1.0, 2.0]"] {
+            let err = with_parameters(1, &format!("yr = {value}\n")).unwrap_err();
+            assert!(
+                err.message
+                    .starts_with("'yr' is an output and computed by the FMU"),
+                "{value}: {err}"
+            );
+        }
     }
 
     #[test]
