@@ -168,7 +168,7 @@ pub struct AnalyzeArgs {
     /// (default: results/<scenario file stem>-convergence). The summary also goes to stdout.
     #[arg(short, long)]
     pub out: Option<PathBuf>,
-    #[arg(long, value_parser = parse_order, help = order_help())]
+    #[arg(long, value_parser = parse_order, help = order_help(), conflicts_with = "no_filter")]
     pub order: Option<usize>,
     /// Filter cutoff f_c, Hz (0 < f_c < Nyquist).
     #[arg(long, conflicts_with = "no_filter", allow_hyphen_values = true)]

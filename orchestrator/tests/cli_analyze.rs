@@ -155,7 +155,15 @@ fn bad_settings_are_named_and_nothing_is_written() {
     let scenario = circle(dir.path(), None);
     let out = dir.path().join("out");
     for (extra, expected) in [
-        (&["--cutoff", "500"][..], "cutoff = 500"),
+        // A value from the command line is named as such, not blamed on the file.
+        (
+            &["--cutoff", "500"][..],
+            "memory update with --cutoff 500: cutoff = 500",
+        ),
+        (
+            &["--no-filter", "--order", "3"][..],
+            "the argument '--no-filter' cannot be used with '--order <ORDER>'",
+        ),
         (&["--cutoff", "NaN"][..], "cutoff = NaN"),
         (
             &["--cutoff", "8", "--order", "0"][..],

@@ -114,10 +114,7 @@ fn update(args: &AnalyzeArgs, scenario: &Scenario) -> Result<UpdateSettings> {
     if let Some(o) = args.order {
         match &mut u.filter {
             Some(q) => q.order = o,
-            None if !args.no_filter => {
-                bail!("--order needs a cutoff (--cutoff, or cutoff in [memory.update])")
-            }
-            None => {}
+            None => bail!("--order needs a cutoff (--cutoff, or cutoff in [memory.update])"),
         }
     }
     if let Some(l) = args.lead {
@@ -129,8 +126,27 @@ fn update(args: &AnalyzeArgs, scenario: &Scenario) -> Result<UpdateSettings> {
     if let Some(g) = args.gain {
         u.gain = g;
     }
-    validate(&u, scenario.step_size)
-        .with_context(|| format!("{}: memory update", file.display()))?;
+    // The options given, so that a value from the command line is not blamed on the file.
+    let given: Vec<String> = [
+        ("--cutoff", args.cutoff.map(|c| Shown(c).to_string())),
+        ("--order", args.order.map(|o| o.to_string())),
+        ("--lead", args.lead.map(|l| l.to_string())),
+        (
+            "--forgetting",
+            args.forgetting.map(|a| Shown(a).to_string()),
+        ),
+        ("--gain", args.gain.map(|g| Shown(g).to_string())),
+    ]
+    .into_iter()
+    .filter_map(|(option, value)| value.map(|v| format!("{option} {v}")))
+    .collect();
+    validate(&u, scenario.step_size).with_context(|| {
+        if given.is_empty() {
+            format!("{}: memory update", file.display())
+        } else {
+            format!("{}: memory update with {}", file.display(), given.join(" "))
+        }
+    })?;
     if u.lead >= scenario.steps {
         bail!(
             "{}: lead = {} samples must be below the {} samples of a trial",
