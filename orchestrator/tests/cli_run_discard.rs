@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{foreign_fmu, orchestrator};
+use common::{foreign_fmu, number_after, orchestrator};
 
 fn scenario(dir: &std::path::Path, discard: bool) -> std::path::PathBuf {
     let fmu = foreign_fmu(dir);
@@ -54,24 +54,8 @@ fn discard_stops_the_run_naming_time_and_last_successful_time() {
     assert!(err.contains("last successful time"), "{err}");
     assert!(err.contains("beyond the end stop"), "{err}");
     // The time reported is the step that was refused, and the FMU says it got no further.
-    let t: f64 = err
-        .split("t = ")
-        .nth(1)
-        .unwrap()
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    let last: f64 = err
-        .split("last successful time ")
-        .nth(1)
-        .unwrap()
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let t = number_after(&err, "t = ");
+    let last = number_after(&err, "last successful time ");
     assert!(t > 0.0 && t < 2.0, "{t}");
     // The FMU's time is cp + h of its last step, the master's t_0 + n·h: equal up to rounding.
     assert!(

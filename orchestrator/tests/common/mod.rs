@@ -242,3 +242,15 @@ pub fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     }
     out
 }
+
+/// The number that follows the first `marker` in a message, up to the next space (a time
+/// such as "at t = 0.1 s").
+pub fn number_after(text: &str, marker: &str) -> f64 {
+    let rest = text
+        .split_once(marker)
+        .unwrap_or_else(|| panic!("no {marker:?} in {text}"))
+        .1;
+    let word = rest.split(' ').next().unwrap_or_default();
+    word.parse()
+        .unwrap_or_else(|e| panic!("{word:?} after {marker:?} in {text}: {e}"))
+}
