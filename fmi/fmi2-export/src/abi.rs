@@ -93,17 +93,13 @@ unsafe fn guard<M: Model>(
 fn refuse_call<M: Model>(inst: &mut Instance<M>, function: Function) -> Fmi2Status {
     let state = inst.glue.state;
     let hint = function.illegal_call_hint();
-    // After an fmi2Error the instance is in Terminated, whose calls are those FMI 2.0 allows
-    // in its error state; it is named by the standard's name, with the call that failed.
-    let (name, cause) = match inst.glue.failed_in {
-        Some(f) if state == FmiState::Terminated => (
-            "Error".to_owned(),
-            format!(
-                " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
-                f.name()
-            ),
+    let name = inst.glue.state_name();
+    let cause = match inst.glue.failed_in {
+        Some(f) if state == FmiState::Terminated => format!(
+            " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
+            f.name()
         ),
-        _ => (state.to_string(), String::new()),
+        _ => String::new(),
     };
     inst.log(
         Status::Error,
@@ -881,7 +877,7 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
             Function::SetFmuState,
             &format!(
                 "restored state {} at t = {}",
-                inst.glue.state,
+                inst.glue.state_name(),
                 fmu_core::Shown(inst.glue.time)
             ),
         );

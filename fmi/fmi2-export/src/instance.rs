@@ -147,6 +147,15 @@ pub(crate) struct Glue {
 }
 
 impl Glue {
+    /// The state as log messages name it: Terminated entered through an fmi2Error is FMI
+    /// 2.0's error state, whose calls it allows.
+    pub(crate) fn state_name(&self) -> &'static str {
+        match self.failed_in {
+            Some(_) if self.state == FmiState::Terminated => "Error",
+            _ => self.state.name(),
+        }
+    }
+
     /// The bookkeeping of a freshly instantiated (or reset) instance.
     pub(crate) fn new() -> Self {
         Self {

@@ -748,6 +748,18 @@ fn calls_after_an_error_name_the_function_that_failed() {
         "{:?}",
         fmu.log.messages()
     );
+    // A state saved there and restored later is named the same way.
+    let mut snap = std::ptr::null_mut();
+    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+    assert_eq!(fmu.reset(), Status::Ok);
+    fmu.log.clear();
+    assert_eq!(fmu.set_state(snap), Status::Ok);
+    assert!(
+        fmu.log.contains("restored state Error at t = 0"),
+        "{:?}",
+        fmu.log.messages()
+    );
+    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
     // fmi2Reset forgets the cause with the state.
     assert_eq!(fmu.reset(), Status::Ok);
     assert_eq!(fmu.setup(0.0, None), Status::Ok);
