@@ -407,7 +407,7 @@ pub const MAX_TEXT_BYTES: u64 = 64 << 20;
 
 /// Reads a scenario or sweep file as UTF-8 text of at most [`MAX_TEXT_BYTES`]; text in
 /// another encoding is named as such (UTF-16), or by the line of its first bad byte.
-pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
+pub fn read_text(path: &Path) -> std::io::Result<String> {
     use std::io::Read;
     if path.is_dir() {
         return Err(std::io::Error::new(

@@ -2,7 +2,6 @@
 //! recording written as CSV. The result is written only after the last step succeeded, and
 //! atomically, so a failed run leaves no output file behind.
 
-use std::io::Read as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
@@ -62,18 +61,12 @@ pub(crate) fn open_fmu(path: &Path) -> Result<Fmu> {
 /// `orchestrator run FILE` or `orchestrator sweep FILE` when `path` holds a scenario or a
 /// sweep file (a TOML table with `[[fmu]]` or `[[axis]]`).
 fn run_command_for(path: &Path) -> Option<String> {
-    // Only a regular file, and only as much of it as a scenario could be: a pipe would
-    // block the open, and a device such as /dev/zero would never end.
-    const LONGEST: u64 = 1 << 20;
+    // Only a regular file: opening a pipe would block. `read_text` bounds the read as for
+    // any scenario file (a device such as /dev/zero never ends).
     if !std::fs::metadata(path).ok()?.is_file() {
         return None;
     }
-    let mut text = String::new();
-    std::fs::File::open(path)
-        .ok()?
-        .take(LONGEST)
-        .read_to_string(&mut text)
-        .ok()?;
+    let text = orchestrator::scenario::read_text(path).ok()?;
     let table: toml::Table = text.parse().ok()?;
     let (kind, command) = if table.contains_key("fmu") {
         ("scenario", "run")
