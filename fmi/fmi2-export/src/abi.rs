@@ -91,16 +91,14 @@ unsafe fn guard<M: Model>(
 #[cold]
 #[inline(never)]
 fn refuse_call<M: Model>(inst: &mut Instance<M>, function: Function) -> Fmi2Status {
-    let state = inst.glue.state;
     let hint = function.illegal_call_hint();
     let name = inst.glue.state_name();
-    let cause = match inst.glue.failed_in {
-        Some(f) if state == FmiState::Terminated => format!(
+    let cause = inst.glue.error_from().map_or_else(String::new, |f| {
+        format!(
             " (entered when {} returned fmi2Error; fmi2Reset or fmi2SetFMUstate continue)",
             f.name()
-        ),
-        _ => String::new(),
-    };
+        )
+    });
     inst.log(
         Status::Error,
         function,

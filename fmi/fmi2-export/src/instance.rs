@@ -147,12 +147,18 @@ pub(crate) struct Glue {
 }
 
 impl Glue {
-    /// The state as log messages name it: Terminated entered through an fmi2Error is FMI
-    /// 2.0's error state, whose calls it allows.
+    /// The call whose fmi2Error put the instance in Terminated, which is then FMI 2.0's
+    /// error state (whose calls Terminated allows).
+    pub(crate) fn error_from(&self) -> Option<Function> {
+        self.failed_in
+            .filter(|_| self.state == FmiState::Terminated)
+    }
+
+    /// The state as log messages name it: Error for Terminated entered through an fmi2Error.
     pub(crate) fn state_name(&self) -> &'static str {
-        match self.failed_in {
-            Some(_) if self.state == FmiState::Terminated => "Error",
-            _ => self.state.name(),
+        match self.error_from() {
+            Some(_) => "Error",
+            None => self.state.name(),
         }
     }
 
