@@ -5,10 +5,11 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::{archive_entry, built_fmu, workspace_root};
+use fmu_build::linux64::{Tools, release_dir};
 
 /// Copies the tracked files of the checkout, as they are now, below `to`.
 fn copy_checkout(to: &Path) {
@@ -31,36 +32,47 @@ fn copy_checkout(to: &Path) {
     }
 }
 
-/// Builds the plant in another folder, with a target directory of its own, and compares its
-/// library with the one packaged in `CkcmPlant.fmu` (several minutes: every dependency is
-/// compiled again).
+/// The build tools `cargo xtask fmu` installed: `$CKCM_TOOLS_DIR` (set by `cargo xtask
+/// test`), else `<workspace>/target/tools`.
+fn installed_tools() -> Tools {
+    let tools = Tools::in_dir(
+        std::env::var_os("CKCM_TOOLS_DIR")
+            .filter(|d| !d.is_empty())
+            .map(PathBuf::from)
+            .unwrap_or_else(|| workspace_root().join("target/tools")),
+    );
+    assert!(
+        tools.cargo_zigbuild().is_file() && tools.python().is_file(),
+        "cargo-zigbuild or Zig is missing from {}: run `cargo xtask fmu` (or point \
+         CKCM_TOOLS_DIR at its tools)",
+        tools.dir().display()
+    );
+    tools
+}
+
+/// Builds the plant in another folder, with a target directory of its own and the same
+/// command as `cargo xtask fmu`, and compares its library with the one packaged in
+/// `CkcmPlant.fmu` (several minutes: every dependency is compiled again).
 #[test]
 fn the_plant_builds_the_same_library_in_another_folder() {
     let packaged = archive_entry(&built_fmu("CkcmPlant"), "binaries/linux64/CkcmPlant.so");
+    let tools = installed_tools();
     let dir = tempfile::tempdir().unwrap();
     let checkout = dir.path().join("elsewhere");
     copy_checkout(&checkout);
     let target = dir.path().join("target");
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = Command::new(cargo)
-        .args([
-            "build",
-            "--release",
-            "--quiet",
-            "--offline",
-            "-p",
-            "fmu-plant",
-        ])
+    let status = tools
+        .build_command(&target)
+        .args(["--offline", "-p", "fmu-plant"])
         .current_dir(&checkout)
-        .env("CARGO_TARGET_DIR", &target)
         .status()
-        .expect("cargo runs");
+        .expect("cargo zigbuild runs");
     assert!(
         status.success(),
         "the build in {} failed",
         checkout.display()
     );
-    let built = std::fs::read(target.join("release/libckcm_plant.so")).unwrap();
+    let built = std::fs::read(release_dir(&target).join("libckcm_plant.so")).unwrap();
     assert!(
         built == packaged,
         "the plant built in {} differs from the packaged one ({} and {} bytes)",

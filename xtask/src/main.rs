@@ -2,9 +2,9 @@
 //!
 //! - `cargo xtask fmu`: build every FMU crate of the workspace (each member with a
 //!   `[package.metadata.fmu]` table: `CkcmPlant`, `HlcsController` and the test fixture
-//!   `ForeignOscillator`) in release mode, for Linux and (cross, with mingw-w64) for win64,
-//!   and package `target/fmu/<modelIdentifier>.fmu`. Installs the Rust target and
-//!   mingw-w64 if missing.
+//!   `ForeignOscillator`) in release mode, for Linux (linked for glibc 2.17 with Zig) and
+//!   (cross, with mingw-w64) for win64, and package `target/fmu/<modelIdentifier>.fmu`.
+//!   Installs the Rust target, mingw-w64, Zig and `cargo-zigbuild` if missing.
 //! - `cargo xtask paper [ARGS...]`: package the FMUs, then run the paper study through the
 //!   orchestrator (`orchestrator paper ARGS...`), writing `results/paper/`.
 //! - `cargo xtask test`: check formatting and clippy, package the FMUs, cross-build
@@ -15,12 +15,13 @@
 #![deny(unsafe_code)]
 
 mod docs;
+mod linux64;
 mod package;
 mod python;
 mod win64;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 use anyhow::{Context, Result, bail};
 
@@ -73,6 +74,7 @@ fn main() -> Result<()> {
                 .args(["test", "--workspace", "--release"])
                 .env("CARGO_TARGET_DIR", target_dir(&root))
                 .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
+                .env(linux64::TOOLS_DIR_VAR, linux64::tools_dir(&root))
                 .envs(wine_env))?;
             win64::run_abi_tests(&root)?;
             python::run_pytest(&root)?;
@@ -111,6 +113,18 @@ pub fn target_dir(root: &Path) -> PathBuf {
 /// The cargo that runs us, so toolchain overrides carry over.
 fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string())
+}
+
+/// The standard output of a command that must succeed.
+pub fn output(cmd: &mut Command) -> Result<String> {
+    let out = cmd
+        .stderr(Stdio::inherit())
+        .output()
+        .with_context(|| format!("cannot start {cmd:?}"))?;
+    if !out.status.success() {
+        bail!("{cmd:?} failed with {}", out.status);
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
 /// Runs a command, failing with its command line if it does not succeed.

@@ -1,14 +1,14 @@
-//! `.fmu` archives: modelDescription.xml, binaries/linux64/<modelIdentifier>.so,
-//! binaries/win64/<modelIdentifier>.dll (cross-built with mingw-w64),
+//! `.fmu` archives: modelDescription.xml, binaries/linux64/<modelIdentifier>.so (linked
+//! for glibc 2.17 with Zig), binaries/win64/<modelIdentifier>.dll (cross-built with
+//! mingw-w64),
 //! documentation/index.html.
 
 use std::fs;
 use std::path::Path;
-use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{cargo, docs, run, target_dir, win64};
+use crate::{docs, linux64, target_dir, win64};
 
 /// Builds every FMU crate of the workspace (the members with a `[package.metadata.fmu]`
 /// table, found by `fmu_build::workspace_fmus`) in release mode, for Linux and for win64,
@@ -24,15 +24,9 @@ pub fn build_fmus(root: &Path) -> Result<()> {
     }
     let packages: Vec<&str> = fmus.iter().map(|f| f.package.as_str()).collect();
     win64::ensure_cross_toolchain()?;
+    let tools = linux64::ensure_tools(root)?;
     let target = target_dir(root);
-    let mut cmd = Command::new(cargo());
-    cmd.current_dir(root)
-        .env("CARGO_TARGET_DIR", &target)
-        .args(["build", "--release", "--quiet"]);
-    for package in &packages {
-        cmd.args(["-p", package]);
-    }
-    run(&mut cmd)?;
+    linux64::cargo_build(root, &tools, &packages)?;
     win64::cargo_build(root, &packages)?;
     let out_dir = target.join("fmu");
     fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
@@ -44,13 +38,7 @@ pub fn build_fmus(root: &Path) -> Result<()> {
                 fmu.model_description.display()
             )
         })?;
-        // This platform's naming (lib*.so, *.dylib, *.dll) from the standard library.
-        let lib = target.join("release").join(format!(
-            "{}{}{}",
-            std::env::consts::DLL_PREFIX,
-            fmu.lib_name,
-            std::env::consts::DLL_SUFFIX
-        ));
+        let lib = linux64::release_dir(root).join(format!("lib{}.so", fmu.lib_name));
         let dll = win64::release_dir(&target).join(win64::dll_file_name(&fmu.lib_name));
         let out = out_dir.join(format!("{id}.fmu"));
         package_fmu(&fmu.model_description, &lib, &dll, &out)?;

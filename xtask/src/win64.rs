@@ -7,11 +7,11 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use crate::{cargo, run, target_dir};
+use crate::{cargo, output, run, target_dir};
 
 /// Rust's target for 64-bit Windows with the MinGW-w64 toolchain (linker and flags in
 /// `.cargo/config.toml`).
@@ -217,16 +217,4 @@ fn on_path(program: &str) -> bool {
         std::env::split_paths(&path)
             .any(|dir| fs::metadata(dir.join(program)).is_ok_and(|m| m.is_file()))
     })
-}
-
-/// The standard output of a command that must succeed.
-fn output(cmd: &mut Command) -> Result<String> {
-    let out = cmd
-        .stderr(Stdio::inherit())
-        .output()
-        .with_context(|| format!("cannot start {cmd:?}"))?;
-    if !out.status.success() {
-        bail!("{cmd:?} failed with {}", out.status);
-    }
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }

@@ -23,6 +23,8 @@ use std::path::{Path, PathBuf};
 use fmi2_md::ModelDescription;
 
 #[cfg(feature = "package")]
+pub mod linux64;
+#[cfg(feature = "package")]
 mod package;
 #[cfg(feature = "package")]
 pub use package::write_fmu;
