@@ -210,10 +210,10 @@ fn draw_panel(area: &Area<'_>, p: &Panel<'_>) -> DrawResult {
             Some(r) => r,
             None => linear_range(points().map(|q| q.1))?,
         };
-        let span = y.end - y.start;
+        let decimals = tick_decimals(&y, Y_LABELS);
         let (mut b, x) = builder(x_range);
         let chart = b.build_cartesian_2d(x, y)?;
-        draw_body(chart, p, runs, &|v| linear_tick(*v, span))?;
+        draw_body(chart, p, runs, &|v| linear_tick(*v, decimals))?;
     }
     let entries: Vec<(&str, RGBColor, Stroke)> = p
         .lines
@@ -234,10 +234,14 @@ fn draw_body<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    let x_span = {
-        let r = chart.x_range();
-        r.end - r.start
+    let x_range = chart.x_range();
+    let x_span = x_range.end - x_range.start;
+    let x_labels = if p.integer_x {
+        (x_span.round() as usize + 1).min(21)
+    } else {
+        X_LABELS
     };
+    let x_decimals = tick_decimals(&x_range, x_labels);
     let x_format = |v: &f64| {
         if p.integer_x {
             if (v - v.round()).abs() < 1e-9 {
@@ -246,20 +250,15 @@ where
                 String::new()
             }
         } else {
-            linear_tick(*v, x_span)
+            linear_tick(*v, x_decimals)
         }
-    };
-    let x_labels = if p.integer_x {
-        (x_span.round() as usize + 1).min(21)
-    } else {
-        10
     };
     chart
         .configure_mesh()
         .x_desc(p.x_label.as_str())
         .y_desc(p.y_label.as_str())
         .x_labels(x_labels)
-        .y_labels(8)
+        .y_labels(Y_LABELS)
         .x_label_formatter(&x_format)
         .y_label_formatter(y_format)
         .label_style((FONT, 13))
@@ -360,27 +359,36 @@ fn legend_sample(area: &Area<'_>, (x, y): (i32, i32), c: RGBColor, stroke: Strok
     Ok(())
 }
 
-/// Tick label on a linear axis spanning `span`: as many decimals as the tick spacing needs,
-/// and never "-0".
-fn linear_tick(v: f64, span: f64) -> String {
-    let decimals =
-        nice_step(span / 8.0).map_or(2, |step| (-step.log10().floor()).clamp(0.0, 12.0) as usize);
-    no_negative_zero(format!("{v:.decimals$}"))
+/// Labelled ticks asked of plotters on a panel's linear x and y axis.
+const X_LABELS: usize = 10;
+const Y_LABELS: usize = 8;
+
+/// Decimals the labels of a linear axis over `range` with at most `labels` ticks need: as
+/// many as plotters' own tick step (1, 2 or 5 × 10^k, chosen from the range and the count),
+/// so that ticks 0.5 or 0.05 apart are not rounded to repeated labels.
+fn tick_decimals(range: &Range<f64>, labels: usize) -> usize {
+    let ticks = RangedCoordf64::from(range.clone()).key_points(labels);
+    let step = ticks
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    // One tick or none: enough decimals for the range itself.
+    let step = if step.is_finite() && step > 0.0 {
+        step
+    } else {
+        (range.end - range.start).abs() / 10.0
+    };
+    (0..=12)
+        .find(|&d| {
+            let s = step * 10f64.powi(d);
+            (s - s.round()).abs() <= 1e-6 * s
+        })
+        .map_or(12, |d| d as usize)
 }
 
-/// The 1-2-5 step at or above `raw`, the spacing plotters puts its ticks at.
-fn nice_step(raw: f64) -> Option<f64> {
-    let raw = raw.abs();
-    if !(raw > 0.0 && raw.is_finite()) {
-        return None;
-    }
-    let e = 10f64.powf(raw.log10().floor());
-    let m = raw / e;
-    let nice = [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .find(|&c| m <= c * (1.0 + 1e-9))
-        .unwrap_or(10.0);
-    Some(nice * e)
+/// Tick label on a linear axis with `decimals` decimals (see [`tick_decimals`]), never "-0".
+fn linear_tick(v: f64, decimals: usize) -> String {
+    no_negative_zero(format!("{v:.decimals$}"))
 }
 
 /// Tick label on a logarithmic axis: plain decimals from 1e-4 to 1e4, else "2e-5".
@@ -502,21 +510,25 @@ pub fn path_projections(
             } else {
                 (x_range, y_range)
             };
-            let (x_span, y_span) = (x_range.end - x_range.start, y_range.end - y_range.start);
+            const LABELS: usize = 6;
+            let (x_decimals, y_decimals) = (
+                tick_decimals(&x_range, LABELS),
+                tick_decimals(&y_range, LABELS),
+            );
             let mut chart = ChartBuilder::on(area)
                 .caption(format!("{}–{} projection", NAMES[a], NAMES[b]), (FONT, 17))
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(70)
                 .build_cartesian_2d(x_range, y_range)?;
-            let x_fmt = |v: &f64| linear_tick(*v, x_span);
-            let y_fmt = |v: &f64| linear_tick(*v, y_span);
+            let x_fmt = |v: &f64| linear_tick(*v, x_decimals);
+            let y_fmt = |v: &f64| linear_tick(*v, y_decimals);
             chart
                 .configure_mesh()
                 .x_desc(format!("{} [{unit}]", NAMES[a]))
                 .y_desc(format!("{} [{unit}]", NAMES[b]))
-                .x_labels(6)
-                .y_labels(6)
+                .x_labels(LABELS)
+                .y_labels(LABELS)
                 .x_label_formatter(&x_fmt)
                 .y_label_formatter(&y_fmt)
                 .label_style((FONT, 13))
@@ -918,12 +930,54 @@ mod tests {
         assert!(!texts.iter().any(|t| t == "0.5" || t == "8.5"), "{texts:?}");
     }
 
+    /// Ticks 0.5 s and 0.05 mm apart, as on the circle's leg-error panels, are labelled
+    /// with the decimals of their step: every label distinct and equal to its tick's value.
+    #[test]
+    fn linear_tick_labels_show_their_step() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("legs.svg");
+        let t: Vec<f64> = (600..=5000).map(|i| f64::from(i) * 1e-3).collect();
+        let e: Vec<f64> = t
+            .iter()
+            .map(|t| 0.17 * (std::f64::consts::TAU * 6.0 * t).sin())
+            .collect();
+        let figure = [Panel {
+            title: "leg errors".into(),
+            lines: vec![line("leg 1", &t, &e, 0)],
+            ..Panel::default()
+        }];
+        panels(&path, "Ticks", &figure).unwrap();
+        let labels: Vec<String> = read_texts(&path)
+            .into_iter()
+            .filter(|s| s.parse::<f64>().is_ok())
+            .collect();
+        let mut distinct = labels.clone();
+        distinct.sort();
+        distinct.dedup();
+        assert_eq!(distinct.len(), labels.len(), "repeated labels: {labels:?}");
+        for (values, n) in [(&t, X_LABELS), (&e, Y_LABELS)] {
+            let range = linear_range(values.iter().copied()).unwrap();
+            let ticks = RangedCoordf64::from(range).key_points(n);
+            assert!(ticks.len() >= 5, "{ticks:?}");
+            for v in ticks {
+                assert!(
+                    labels
+                        .iter()
+                        .any(|l| (l.parse::<f64>().unwrap() - v).abs() < 1e-9),
+                    "tick {v} has no label equal to it: {labels:?}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn tick_labels_are_clean() {
-        assert_eq!(linear_tick(-0.0001, 1.0), "0.0");
-        assert_eq!(linear_tick(-0.5, 1.0), "-0.5");
-        assert_eq!(linear_tick(250.0, 400.0), "250");
-        assert_eq!(linear_tick(81.0, 6.0), "81");
+        assert_eq!(linear_tick(-0.0001, 1), "0.0");
+        assert_eq!(linear_tick(-0.5, 1), "-0.5");
+        assert_eq!(tick_decimals(&(0.0..400.0), X_LABELS), 0);
+        assert_eq!(tick_decimals(&(78.0..84.0), Y_LABELS), 0);
+        assert_eq!(tick_decimals(&(0.38..5.02), X_LABELS), 1);
+        assert_eq!(tick_decimals(&(-0.19..0.19), Y_LABELS), 2);
         assert_eq!(log_tick(0.001), "0.001");
         assert_eq!(log_tick(0.002), "0.002");
         assert_eq!(log_tick(2e-5), "2e-5");
