@@ -41,7 +41,7 @@ pub struct TrialData {
     pub rec: Recording,
     /// Max over legs of |e| per time bucket, mm: (bucket centres, maxima).
     pub envelope: (Vec<f64>, Vec<f64>),
-    /// Error amplitude spectrum up to [`SPECTRUM_MAX_HZ`], without 0 Hz: (Hz, mm).
+    /// Single-sided error amplitude spectrum ([`error_spectrum`]) without 0 Hz: (Hz, mm).
     pub spectrum: (Vec<f64>, Vec<f64>),
     /// |p − p_d| at every sample, mm.
     pub path_error: Vec<f64>,
@@ -55,17 +55,10 @@ impl TrialData {
             [a, b, ..] => b - a,
             _ => 1e-3,
         };
-        let (f, p) = error_spectrum(&leg_errors(&rec), step);
-        let keep = f.partition_point(|&x| x <= SPECTRUM_MAX_HZ).max(1);
-        // Amplitude in mm (square root of power), which reads more naturally; the 0 Hz bin
-        // is empty after removing the mean, so it is left out.
-        let spectrum = (
-            f[1.min(keep)..keep].to_vec(),
-            p[1.min(keep)..keep]
-                .iter()
-                .map(|v| v.sqrt() * 1e3)
-                .collect(),
-        );
+        let (f, a) = error_spectrum(&leg_errors(&rec), step);
+        // The 0 Hz bin is empty after removing the trend, so it is left out.
+        let from = 1.min(f.len());
+        let spectrum = (f[from..].to_vec(), scale(&a[from..], 1e3));
         let path_error = scale(&path_error(&rec, trajectory), 1e3);
         let (names, columns): (Vec<String>, Vec<Vec<f64>>) = rec
             .names
@@ -87,8 +80,8 @@ impl TrialData {
 
 /// Width of a time bucket of the |e| envelope, s: fine enough for the 5–7 Hz growth.
 const ENVELOPE_BUCKET: f64 = 0.02;
-/// Highest frequency shown in spectra, Hz.
-const SPECTRUM_MAX_HZ: f64 = 30.0;
+/// Share of every drawn trial's error energy that a spectrum figure's frequency range holds.
+const SPECTRUM_ENERGY: f64 = 0.99;
 
 /// The trial the claims look at: 2 on the line ("after two trials"), 3 on the circle.
 pub fn claim_trial(kind: TrajectoryKind) -> usize {
@@ -308,6 +301,32 @@ fn round_125(v: f64) -> f64 {
         .unwrap_or(e)
 }
 
+/// A 1-2-5 number at or above `v` (≥ 1).
+fn ceil_125(v: f64) -> f64 {
+    if !(v.is_finite() && v > 1.0) {
+        return 1.0;
+    }
+    let e = 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * e)
+        .find(|&c| c >= v)
+        .unwrap_or(10.0 * e)
+}
+
+/// Frequency below which `share` of a spectrum's energy (squared amplitude) lies, Hz.
+fn energy_below(freq: &[f64], amplitude: &[f64], share: f64) -> f64 {
+    let total: f64 = amplitude.iter().map(|a| a * a).sum();
+    let mut sum = 0.0;
+    for (f, a) in freq.iter().zip(amplitude) {
+        sum += a * a;
+        if sum >= share * total {
+            return *f;
+        }
+    }
+    freq.last().copied().unwrap_or(0.0)
+}
+
 /// Fig. 6/7 d: desired vs actual path of the three schemes in the claims' trial, with the
 /// error magnified so that millimetres show on a path of decimetres.
 fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<(), PaperError> {
@@ -433,25 +452,34 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
     Ok(())
 }
 
-/// Fig. 6/7 f: error power spectrum per trial (HLCS), with the dominant frequency and the
-/// share above 5 Hz in the legend.
+/// Fig. 6/7 f: error amplitude spectrum per trial (HLCS), with the dominant frequency and
+/// the share above 5 Hz in the legend, up to the frequency below which
+/// [`SPECTRUM_ENERGY`] of every trial's energy lies (the line's late trials oscillate near
+/// 150 Hz, the circle's at 5–7 Hz).
 fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let kind = d.result.trajectory;
     let n = d.recordings.len();
+    let top = ceil_125(
+        d.recordings
+            .iter()
+            .map(|td| energy_below(&td.spectrum.0, &td.spectrum.1, SPECTRUM_ENERGY))
+            .fold(10.0, f64::max),
+    );
     let lines: Vec<Line<'_>> = d
         .recordings
         .iter()
         .zip(&d.metrics)
         .map(|(td, m)| {
             let (k, (f, a)) = (&td.trial, &td.spectrum);
+            let shown = f.partition_point(|&x| x <= top);
             trial_line(
                 format!(
                     "{k}: {:.1} Hz, {:.0} % > {HIGH_HZ:.0} Hz",
                     m.dominant_hz,
                     100.0 * m.above_high
                 ),
-                f,
-                a,
+                &f[..shown],
+                &a[..shown],
                 *k,
                 n,
             )
@@ -466,11 +494,14 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         &file(fig, kind, "spectrum"),
         &title,
         &[Panel {
-            title: "amplitude spectrum, six legs combined, mean removed".into(),
+            title: format!(
+                "single-sided amplitude, RMS over the legs, trend removed, Hann window; 0–{top} Hz holds ≥ {:.0} % of each trial's energy",
+                100.0 * SPECTRUM_ENERGY
+            ),
             x_label: "frequency [Hz]".into(),
-            y_label: "|E(f)|/√N [mm]".into(),
+            y_label: "amplitude [mm]".into(),
             log_y: true,
-            x_range: Some(0.0..SPECTRUM_MAX_HZ),
+            x_range: Some(0.0..top),
             lines,
             legend_title: "trial: dominant, share".into(),
             ..Panel::default()

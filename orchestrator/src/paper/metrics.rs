@@ -36,9 +36,10 @@ pub struct TrialMetrics {
     pub steady_mean: f64,
     /// max |p − p_d| for t < [`TRANSIENT_END`], m.
     pub transient_path_max: f64,
-    /// Frequency of the largest error power above 0 Hz, Hz.
+    /// Frequency of the largest error amplitude above 0 Hz (linear trend removed, Hann
+    /// window; [`error_spectrum`]), Hz.
     pub dominant_hz: f64,
-    /// Share of the error energy (mean removed) above [`HIGH_HZ`].
+    /// Share of the error energy (linear trend removed, Hann window) above [`HIGH_HZ`].
     pub above_high: f64,
     /// RMS actuator force over legs and time, N.
     pub force_rms: f64,
@@ -87,40 +88,66 @@ pub fn path_error(rec: &Recording, trajectory: &Trajectory) -> Vec<f64> {
         .collect()
 }
 
-/// One-sided power spectrum of the leg errors, summed over legs, each with its mean removed
-/// (the static offset is not the oscillation of interest): (frequencies in Hz, power in m²
-/// up to a constant factor). Empty for fewer than two samples.
+/// Single-sided amplitude spectrum of the leg errors: (frequencies in Hz, amplitude in m),
+/// the RMS over the legs of each leg's spectrum. Each leg has its least-squares line removed
+/// (a static offset or slow drift is not the oscillation of interest) and a Hann window
+/// applied, so that an error that ends away from where it started does not leak into the
+/// lowest bins; amplitudes are
+/// corrected for the window (2|X(f)|/Σw, |X(f)|/Σw at 0 Hz and Nyquist), so a sine of
+/// amplitude a centred on a bin reads a. Empty for fewer than two samples.
 pub fn error_spectrum(errors: &[&[f64]], step: f64) -> (Vec<f64>, Vec<f64>) {
     let n = errors.iter().map(|e| e.len()).min().unwrap_or(0);
-    if n < 2 {
+    if n < 2 || errors.is_empty() {
         return (Vec::new(), Vec::new());
     }
+    let window: Vec<f64> = (0..n)
+        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos())
+        .collect();
+    let gain: f64 = window.iter().sum();
     let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
     let bins = n / 2 + 1;
-    let mut power = vec![0.0; bins];
+    let mut squares = vec![0.0; bins];
     let mut buf = vec![Complex::new(0.0, 0.0); n];
+    let mid = (n - 1) as f64 / 2.0;
+    let spread: f64 = (0..n).map(|i| (i as f64 - mid).powi(2)).sum();
     for e in errors {
-        let mean = e[..n].iter().sum::<f64>() / n as f64;
-        for (b, v) in buf.iter_mut().zip(&e[..n]) {
-            *b = Complex::new(v - mean, 0.0);
+        let e = &e[..n];
+        let mean = e.iter().sum::<f64>() / n as f64;
+        let slope = e
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (i as f64 - mid) * (v - mean))
+            .sum::<f64>()
+            / spread;
+        for (i, ((b, v), w)) in buf.iter_mut().zip(e).zip(&window).enumerate() {
+            *b = Complex::new((v - mean - slope * (i as f64 - mid)) * w, 0.0);
         }
         fft.process(&mut buf);
-        for (p, c) in power.iter_mut().zip(&buf) {
-            *p += c.norm_sqr() / n as f64;
+        for (i, (a, c)) in squares.iter_mut().zip(&buf).enumerate() {
+            let one_sided = if i == 0 || 2 * i == n { 1.0 } else { 2.0 };
+            *a += (one_sided * c.norm() / gain).powi(2);
         }
     }
+    let legs = errors.len() as f64;
     let df = 1.0 / (n as f64 * step);
-    ((0..bins).map(|i| i as f64 * df).collect(), power)
+    (
+        (0..bins).map(|i| i as f64 * df).collect(),
+        squares.iter().map(|a| (a / legs).sqrt()).collect(),
+    )
 }
 
-/// Dominant frequency (largest power above 0 Hz) and the share of power above `above_hz`.
-pub fn spectrum_summary(freq: &[f64], power: &[f64], above_hz: f64) -> (f64, f64) {
-    let body = || freq.iter().zip(power).skip(1);
+/// Dominant frequency (largest amplitude above 0 Hz) and the share of the error energy
+/// (squared amplitude, 0 Hz left out) above `above_hz`, from [`error_spectrum`].
+pub fn spectrum_summary(freq: &[f64], amplitude: &[f64], above_hz: f64) -> (f64, f64) {
+    let body = || freq.iter().zip(amplitude).skip(1);
     let dominant = body()
         .max_by(|a, b| a.1.total_cmp(b.1))
         .map_or(f64::NAN, |(f, _)| *f);
-    let total: f64 = body().map(|(_, p)| p).sum();
-    let high: f64 = body().filter(|(f, _)| **f > above_hz).map(|(_, p)| p).sum();
+    let total: f64 = body().map(|(_, a)| a * a).sum();
+    let high: f64 = body()
+        .filter(|(f, _)| **f > above_hz)
+        .map(|(_, a)| a * a)
+        .sum();
     (dominant, if total > 0.0 { high / total } else { 0.0 })
 }
 
@@ -239,12 +266,35 @@ mod tests {
             .iter()
             .map(|t| 3.0 * (std::f64::consts::TAU * 6.4 * t).sin())
             .collect();
-        let (f, p) = error_spectrum(&[&slow, &fast], h);
-        let (dominant, high) = spectrum_summary(&f, &p, HIGH_HZ);
+        let (f, a) = error_spectrum(&[&slow, &fast], h);
+        let (dominant, high) = spectrum_summary(&f, &a, HIGH_HZ);
         assert!((dominant - 6.4).abs() < 1e-9, "{dominant}");
-        // Power ratio 9:1, so 90 % of the energy is above 5 Hz; the 0.3 offset is removed.
-        assert!((high - 0.9).abs() < 1e-6, "{high}");
+        // Energy ratio 9:1, so 90 % of the energy is above 5 Hz; the 0.3 offset is removed.
+        assert!((high - 0.9).abs() < 1e-3, "{high}");
         assert_eq!(spectrum_summary(&[], &[], HIGH_HZ).1, 0.0);
+        // Amplitudes in m, single-sided: the RMS over the two legs of 3 at 6.4 Hz and of 1
+        // at 1 Hz (each sine on a bin centre, where the window correction is exact).
+        let at = |hz: f64| a[(hz / (f[1] - f[0])).round() as usize];
+        assert!((at(6.4) - 3.0 / 2f64.sqrt()).abs() < 1e-3, "{}", at(6.4));
+        assert!((at(1.0) - 1.0 / 2f64.sqrt()).abs() < 1e-3, "{}", at(1.0));
+    }
+
+    /// An error that drifts and ends far from where it started, with a small oscillation at
+    /// 154 Hz (the line's late trials): the oscillation is dominant, not the lowest bin that
+    /// the drift's jump at the record's ends fills without a window.
+    #[test]
+    fn a_drift_does_not_pass_for_the_dominant_frequency() {
+        let h = 1e-3;
+        let e: Vec<f64> = (0..15000)
+            .map(|i| {
+                let t = f64::from(i) * h;
+                1e-5 * t / 15.0 + 1e-6 * (std::f64::consts::TAU * 154.0 * t).sin()
+            })
+            .collect();
+        let (f, a) = error_spectrum(&[&e], h);
+        let (dominant, high) = spectrum_summary(&f, &a, HIGH_HZ);
+        assert!((dominant - 154.0).abs() < 1e-6, "{dominant}");
+        assert!(high > 0.95, "{high}");
     }
 
     #[test]
