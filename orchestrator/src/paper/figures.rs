@@ -1,6 +1,6 @@
 //! The study's figures (SVG): the paper's Fig. 6/7 (a–d) and 8, rebuilt so the quantity of
-//! interest is visible, and new ones (e–h) for the path error, the error spectrum, the
-//! actuator effort and the learned input.
+//! interest is visible, and extra ones, numbered E1–E8 so that none passes for a panel of the
+//! paper's, for the path error, the error spectrum, the actuator effort and the learned input.
 
 use std::path::Path;
 
@@ -82,6 +82,14 @@ impl TrialData {
 const ENVELOPE_BUCKET: f64 = 0.02;
 /// Share of every drawn trial's error energy that a spectrum figure's frequency range holds.
 const SPECTRUM_ENERGY: f64 = 0.99;
+
+/// Number of an extra figure, one the paper does not have: `what` is 0 for the path error, 1
+/// the spectrum, 2 the actuator effort, 3 the learned input; E1–E4 on the line, E5–E8 on the
+/// circle.
+pub fn extra_figure(kind: TrajectoryKind, what: usize) -> String {
+    let first = if kind == TrajectoryKind::Line { 1 } else { 5 };
+    format!("E{}", first + what)
+}
 
 /// The trial the claims look at: 2 on the line ("after two trials"), 3 on the circle.
 pub fn claim_trial(kind: TrajectoryKind) -> usize {
@@ -406,7 +414,7 @@ fn trajectory_point(t: &Trajectory, time: f64) -> [f64; 3] {
     [p.x, p.y, p.z]
 }
 
-/// Fig. 6/7 e: Cartesian path error against time, HLCS per trial and PID.
+/// Fig. E1/E5: Cartesian path error against time, HLCS per trial and PID.
 fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), PaperError> {
     let kind = hlcs.result.trajectory;
     let n = hlcs.recordings.len();
@@ -433,8 +441,8 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
         ));
     }
     let title = format!(
-        "Fig. {}e: {}, Cartesian path error |p − p_d| against time",
-        figure_number(kind),
+        "Fig. {}: {}, Cartesian path error |p − p_d| against time",
+        extra_figure(kind, 0),
         traj_slug(kind)
     );
     panels(
@@ -452,7 +460,7 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
     Ok(())
 }
 
-/// Fig. 6/7 f: error amplitude spectrum per trial (HLCS), with the dominant frequency and
+/// Fig. E2/E6: error amplitude spectrum per trial (HLCS), with the dominant frequency and
 /// the share above 5 Hz in the legend, up to the frequency below which
 /// [`SPECTRUM_ENERGY`] of every trial's energy lies (the line's late trials oscillate near
 /// 150 Hz, the circle's at 5–7 Hz).
@@ -486,8 +494,8 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         })
         .collect();
     let title = format!(
-        "Fig. {}f: {}, spectrum of the leg error per trial under HLCS",
-        figure_number(kind),
+        "Fig. {}: {}, spectrum of the leg error per trial under HLCS",
+        extra_figure(kind, 1),
         traj_slug(kind)
     );
     panels(
@@ -510,7 +518,7 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     Ok(())
 }
 
-/// Fig. 6/7 g: actuator effort: leg-1 force per trial, its change from trial 0, and the
+/// Fig. E3/E7: actuator effort: leg-1 force per trial, its change from trial 0, and the
 /// RMS force per trial of every scheme.
 fn effort_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<(), PaperError> {
     let hlcs = find(data, kind, Scheme::Hlcs)?;
@@ -561,8 +569,8 @@ fn effort_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<
         .collect();
     let trials = hlcs.result.summaries.len() as f64;
     let title = format!(
-        "Fig. {}g: {}, actuator effort per trial",
-        figure_number(kind),
+        "Fig. {}: {}, actuator effort per trial",
+        extra_figure(kind, 2),
         traj_slug(kind)
     );
     panels(
@@ -598,7 +606,7 @@ fn effort_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<
     Ok(())
 }
 
-/// Fig. 6/7 h: the learned input u_{k+1} built during trial k (HLCS).
+/// Fig. E4/E8: the learned input u_{k+1} built during trial k (HLCS).
 fn learned_input_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let kind = d.result.trajectory;
     let n = d.recordings.len();
@@ -634,8 +642,8 @@ fn learned_input_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         })
         .collect();
     let title = format!(
-        "Fig. {}h: {}, learned input u_k under HLCS",
-        figure_number(kind),
+        "Fig. {}: {}, learned input u_k under HLCS",
+        extra_figure(kind, 3),
         traj_slug(kind)
     );
     panels(
