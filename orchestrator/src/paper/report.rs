@@ -202,6 +202,29 @@ mod tests {
         assert!(fill("{{a", &v).is_err());
     }
 
+    /// The paper's figures keep their numbers and panels a–d; the extra ones are E1–E8. The
+    /// claim quotes the paper as printed and says which norm is measured; the robust section
+    /// says which case changes the controller and which table its numbers come from.
+    #[test]
+    fn the_template_keeps_the_papers_figures_and_words_apart_from_ours() {
+        for fig in ['6', '7'] {
+            for panel in 'a'..='h' {
+                let name = format!("Fig. {fig}{panel}");
+                assert_eq!(TEMPLATE.contains(&name), panel <= 'd', "{name}");
+            }
+        }
+        for e in 1..=8 {
+            assert!(TEMPLATE.contains(&format!("![Fig. E{e}](")), "Fig. E{e}");
+        }
+        assert!(TEMPLATE.contains("represented by the q -norm [sic; "));
+        assert!(TEMPLATE.contains("not the norm of the paper's eqs. (20)–(21)"));
+        assert!(TEMPLATE.contains("sets the controller's learning gains Φ, Γ and Ψ"));
+        assert!(!TEMPLATE.contains("which keeps its nominal model and gains"));
+        assert!(TEMPLATE.contains("\"Beyond the paper\" comes from `robust.csv`"));
+        assert!(!TEMPLATE.contains("Per trial, mm"));
+        assert!(!TEMPLATE.contains("keeps converging"));
+    }
+
     #[test]
     fn the_template_names_every_figure_and_claim() {
         for f in super::super::figures::figure_files() {
