@@ -8,7 +8,8 @@ use ckcm::{Trajectory, TrajectoryKind};
 
 use super::cases::{CaseResult, Scheme, TRAJECTORIES, figure_number, traj_slug};
 use super::metrics::{
-    HIGH_HZ, RHOS, TRANSIENT_END, TrialMetrics, error_spectrum, leg_errors, path_error,
+    HIGH_HZ, RHOS, TRANSIENT_END, TrialMetrics, energy_below, error_spectrum, leg_errors,
+    path_error,
 };
 use super::{PaperError, PaperOptions};
 use crate::campaign::TrialSummary;
@@ -41,7 +42,7 @@ pub struct TrialData {
     pub rec: Recording,
     /// Max over legs of |e| per time bucket, mm: (bucket centres, maxima).
     pub envelope: (Vec<f64>, Vec<f64>),
-    /// Single-sided error amplitude spectrum ([`error_spectrum`]) without 0 Hz: (Hz, mm).
+    /// Single-sided error amplitude spectrum ([`error_spectrum`]): (Hz, mm).
     pub spectrum: (Vec<f64>, Vec<f64>),
     /// |p − p_d| at every sample, mm.
     pub path_error: Vec<f64>,
@@ -56,9 +57,7 @@ impl TrialData {
             _ => 1e-3,
         };
         let (f, a) = error_spectrum(&leg_errors(&rec), step);
-        // The 0 Hz bin is empty after removing the trend, so it is left out.
-        let from = 1.min(f.len());
-        let spectrum = (f[from..].to_vec(), scale(&a[from..], 1e3));
+        let spectrum = (f, scale(&a, 1e3));
         let path_error = scale(&path_error(&rec, trajectory), 1e3);
         let (names, columns): (Vec<String>, Vec<Vec<f64>>) = rec
             .names
@@ -322,19 +321,6 @@ fn ceil_125(v: f64) -> f64 {
         .unwrap_or(10.0 * e)
 }
 
-/// Frequency below which `share` of a spectrum's energy (squared amplitude) lies, Hz.
-fn energy_below(freq: &[f64], amplitude: &[f64], share: f64) -> f64 {
-    let total: f64 = amplitude.iter().map(|a| a * a).sum();
-    let mut sum = 0.0;
-    for (f, a) in freq.iter().zip(amplitude) {
-        sum += a * a;
-        if sum >= share * total {
-            return *f;
-        }
-    }
-    freq.last().copied().unwrap_or(0.0)
-}
-
 /// Fig. 6/7 d: desired vs actual path of the three schemes in the claims' trial, with the
 /// error magnified so that millimetres show on a path of decimetres.
 fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<(), PaperError> {
@@ -460,8 +446,8 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
     Ok(())
 }
 
-/// Fig. E2/E6: error amplitude spectrum per trial (HLCS), with the dominant frequency and
-/// the share above 5 Hz in the legend, up to the frequency below which
+/// Fig. E2/E6: error amplitude spectrum per trial (HLCS), with the median frequency of the
+/// error energy and the share above 5 Hz in the legend, up to the frequency below which
 /// [`SPECTRUM_ENERGY`] of every trial's energy lies (the line's late trials oscillate near
 /// 150 Hz, the circle's at 5–7 Hz).
 fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
@@ -479,15 +465,17 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         .zip(&d.metrics)
         .map(|(td, m)| {
             let (k, (f, a)) = (&td.trial, &td.spectrum);
+            // The 0 Hz bin is empty after removing the mean, so it is left out.
             let shown = f.partition_point(|&x| x <= top);
+            let from = 1.min(shown);
             trial_line(
                 format!(
                     "{k}: {:.1} Hz, {:.0} % > {HIGH_HZ:.0} Hz",
-                    m.dominant_hz,
+                    m.median_hz,
                     100.0 * m.above_high
                 ),
-                &f[..shown],
-                &a[..shown],
+                &f[from..shown],
+                &a[from..shown],
                 *k,
                 n,
             )
@@ -503,7 +491,7 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
         &title,
         &[Panel {
             title: format!(
-                "single-sided amplitude, RMS over the legs, trend removed, Hann window; 0–{top} Hz holds ≥ {:.0} % of each trial's energy",
+                "single-sided amplitude, RMS over the legs, mean removed; 0–{top} Hz holds ≥ {:.0} % of each trial's energy",
                 100.0 * SPECTRUM_ENERGY
             ),
             x_label: "frequency [Hz]".into(),
@@ -511,7 +499,7 @@ fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
             log_y: true,
             x_range: Some(0.0..top),
             lines,
-            legend_title: "trial: dominant, share".into(),
+            legend_title: format!("trial: median, share > {HIGH_HZ:.0} Hz"),
             ..Panel::default()
         }],
     )?;

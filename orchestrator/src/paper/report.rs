@@ -61,8 +61,8 @@ pub fn values(opts: &PaperOptions, t: &Tables) -> Result<BTreeMap<String, String
             set(
                 &format!("spec.{s}.{key}"),
                 format!(
-                    "{:.1} Hz in trial {k} ({:.0} % of the error energy above 5 Hz)",
-                    m.dominant_hz,
+                    "{:.1} Hz in trial {k} ({:.0} % of it above 5 Hz)",
+                    m.median_hz,
                     100.0 * m.above_high
                 ),
             );
@@ -73,7 +73,7 @@ pub fn values(opts: &PaperOptions, t: &Tables) -> Result<BTreeMap<String, String
 
 fn table(t: &Tables, kind: TrajectoryKind) -> Result<String, PaperError> {
     let mut s = String::from(
-        "| trial | PID max | PD-ILC max | HLCS max | PD-ILC λ₁ | HLCS λ₁ | HLCS λ₅ | PID path | HLCS path | HLCS dominant | HLCS > 5 Hz |\n\
+        "| trial | PID max | PD-ILC max | HLCS max | PD-ILC λ₁ | HLCS λ₁ | HLCS λ₅ | PID path | HLCS path | HLCS median frequency | HLCS share > 5 Hz |\n\
          |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for k in 0..t.trials {
@@ -92,7 +92,7 @@ fn table(t: &Tables, kind: TrajectoryKind) -> Result<String, PaperError> {
             mm(hm.lambda[1]),
             mm(p.path_max),
             mm(h.path_max),
-            hm.dominant_hz,
+            hm.median_hz,
             100.0 * hm.above_high,
         );
     }
