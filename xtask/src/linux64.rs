@@ -9,7 +9,7 @@ use std::process::Command;
 use anyhow::{Context, Result};
 use fmu_build::linux64::{self, CARGO_ZIGBUILD_VERSION, Tools, ZIGLANG_VERSION};
 
-use crate::{cargo, output, run, target_dir};
+use crate::{cargo, output, python, run, target_dir};
 
 /// The environment variable naming the tools' folder, read by the tests too.
 pub const TOOLS_DIR_VAR: &str = "CKCM_TOOLS_DIR";
@@ -34,15 +34,7 @@ pub fn ensure_tools(root: &Path) -> Result<Tools> {
         run(Command::new("python3")
             .args(["-m", "venv", "--clear"])
             .arg(tools.venv()))?;
-        run(Command::new(tools.python())
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .arg(format!("ziglang=={ZIGLANG_VERSION}")))?;
+        run(python::pip_install(&tools.python()).arg(format!("ziglang=={ZIGLANG_VERSION}")))?;
     }
     let zigbuild = output(Command::new(tools.cargo_zigbuild()).arg("--version")).ok();
     let wanted = format!("cargo-zigbuild {CARGO_ZIGBUILD_VERSION}");

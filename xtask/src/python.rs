@@ -7,6 +7,19 @@ use anyhow::{Result, bail};
 
 use crate::{run, target_dir};
 
+/// `python -m pip install`, quiet; the caller names what to install.
+pub fn pip_install(python: &Path) -> Command {
+    let mut cmd = Command::new(python);
+    cmd.args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+    ]);
+    cmd
+}
+
 /// Creates `.venv` (if needed) from `tests/python/requirements.txt` and runs pytest on
 /// `tests/python`. pytest's exit code 5 ("no tests collected") is a failure here.
 pub fn run_pytest(root: &Path) -> Result<()> {
@@ -15,15 +28,8 @@ pub fn run_pytest(root: &Path) -> Result<()> {
     if !python.exists() {
         run(Command::new("python3").arg("-m").arg("venv").arg(&venv))?;
     }
-    run(Command::new(&python)
-        .args([
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-            "-r",
-        ])
+    run(pip_install(&python)
+        .arg("-r")
         .arg(root.join("tests/python/requirements.txt")))?;
     let status = Command::new(&python)
         .current_dir(root)

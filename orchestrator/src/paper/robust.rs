@@ -676,13 +676,16 @@ mod tests {
         }
         let text = checks(&series).join("\n");
         assert!(!text.contains("does not hold"), "{text}");
+        let failing_lines = |text: &str| -> Vec<String> {
+            text.lines()
+                .filter(|l| l.contains("does not hold"))
+                .map(str::to_owned)
+                .collect()
+        };
         // A rise of 2 µm into trial 40 of the noise-free circle is found and fails.
         series[find(Circle, "robust")].max[40] = 2.2e-5 + 2e-6;
         let text = checks(&series).join("\n");
-        let failing: Vec<&str> = text
-            .lines()
-            .filter(|l| l.contains("does not hold"))
-            .collect();
+        let failing = failing_lines(&text);
         assert_eq!(failing.len(), 1, "{text}");
         assert!(
             failing[0].contains("Circle, robust, largest rise"),
@@ -693,10 +696,7 @@ mod tests {
         series[find(Circle, "robust")].max[40] = 2e-5;
         series[find(LinePath, "robust_noise_1e-5")].max[31] = 1.12e-5;
         let text = checks(&series).join("\n");
-        let failing: Vec<&str> = text
-            .lines()
-            .filter(|l| l.contains("does not hold"))
-            .collect();
+        let failing = failing_lines(&text);
         assert_eq!(failing.len(), 1, "{text}");
         assert!(
             failing[0].contains("Line, robust, σ = 1e-5 m, every trial from 29 to 49")
