@@ -1,8 +1,8 @@
 //! The hybrid learning control scheme (HLCS), sampled (docs/model.md §4, §6).
 //!
 //! At sample t_n with measured lengths l and rates l̇ and the stored learning input u_k(t_n):
-//! e = l_d − l, ė = l̇_d − l̇, I_n = I_{n−1} + e h (paper eq. 10),
-//! τ = Kp e + Kd ė + Ki I_n (eq. 9) + u_k (eq. 8) + τ_a (eq. 7, computed in task space with the
+//! e = l_d − l (paper eq. 10), ė = l̇_d − l̇, I_n = I_{n−1} + e h (our sampling of eq. 9's
+//! integral), τ = Kp e + Kd ė + Ki I_n (eq. 9) + u_k (eq. 8) + τ_a (eq. 7, computed in task space with the
 //! nominal model), and u_{k+1}(t_n) = u_k(t_n) + Φ e + Γ ė + Ψ I_n (eq. 14).
 
 use nalgebra::Vector6;

@@ -396,7 +396,9 @@ mod tests {
         let home = mech.home();
         let mut rng = SplitMix(7);
         for case in 0..20_000 {
-            // Unnormalised quaternions too: the integrator's RK4 stages evaluate those.
+            // Every other case unnormalised: the two paths must agree for any quaternion,
+            // though the integrator hands the dynamics normalised ones
+            // (`UnitQuaternion::from_quaternion` in `State::from_vector`).
             let q = nalgebra::Quaternion::new(
                 1.0 + 0.05 * rng.next(),
                 0.1 * rng.next(),
