@@ -295,30 +295,22 @@ fn xyz(rec: &Recording) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// A 1-2-5 number at or below `v` (≥ 1).
-fn round_125(v: f64) -> f64 {
+/// The 1-2-5 number (1, 2, 5, 10, 20, …) next to `v` (≥ 1): at or above it with `up`, else
+/// at or below it.
+fn round_125(v: f64, up: bool) -> f64 {
     if !(v.is_finite() && v > 1.0) {
         return 1.0;
     }
     let e = 10f64.powf(v.log10().floor());
-    [5.0, 2.0, 1.0]
-        .into_iter()
-        .map(|m| m * e)
-        .find(|&c| c <= v)
-        .unwrap_or(e)
-}
-
-/// A 1-2-5 number at or above `v` (≥ 1).
-fn ceil_125(v: f64) -> f64 {
-    if !(v.is_finite() && v > 1.0) {
-        return 1.0;
+    let [one, two, five, ten] = [1.0, 2.0, 5.0, 10.0].map(|m| m * e);
+    if up {
+        [one, two, five]
+            .into_iter()
+            .find(|&c| c >= v)
+            .unwrap_or(ten)
+    } else {
+        [five, two].into_iter().find(|&c| c <= v).unwrap_or(one)
     }
-    let e = 10f64.powf(v.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * e)
-        .find(|&c| c >= v)
-        .unwrap_or(10.0 * e)
 }
 
 /// Fig. 6/7 d: desired vs actual path of the three schemes in the claims' trial, with the
@@ -359,7 +351,7 @@ fn path_figure(fig: &Path, data: &[CaseData], kind: TrajectoryKind) -> Result<()
     }
     // HLCS's largest error drawn at about 5 % of the path's extent (PID's, larger, shows
     // magnified by the same factor).
-    let m = round_125(0.05 * span / worst);
+    let m = round_125(0.05 * span / worst, false);
     let lines: Vec<PathLine> = actual
         .into_iter()
         .map(|(scheme, p)| PathLine {
@@ -453,11 +445,12 @@ fn path_error_figure(fig: &Path, hlcs: &CaseData, pid: &CaseData) -> Result<(), 
 fn spectrum_figure(fig: &Path, d: &CaseData) -> Result<(), PaperError> {
     let kind = d.result.trajectory;
     let n = d.recordings.len();
-    let top = ceil_125(
+    let top = round_125(
         d.recordings
             .iter()
             .map(|td| energy_below(&td.spectrum.0, &td.spectrum.1, SPECTRUM_ENERGY))
             .fold(10.0, f64::max),
+        true,
     );
     let lines: Vec<Line<'_>> = d
         .recordings
@@ -826,6 +819,23 @@ pub fn figure_files() -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn round_125_goes_to_the_next_1_2_5_number_either_way() {
+        for (v, down, up) in [
+            (0.5, 1.0, 1.0),
+            (1.0, 1.0, 1.0),
+            (3.0, 2.0, 5.0),
+            (7.0, 5.0, 10.0),
+            (10.0, 10.0, 10.0),
+            (120.0, 100.0, 200.0),
+            (499.0, 200.0, 500.0),
+            (f64::NAN, 1.0, 1.0),
+        ] {
+            assert_eq!(round_125(v, false), down, "{v} down");
+            assert_eq!(round_125(v, true), up, "{v} up");
+        }
+    }
 
     /// A trial's recording as `paper` records it (error, force and learned input of every
     /// leg, the pose), 50 samples of small values.
