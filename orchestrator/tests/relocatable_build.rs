@@ -5,7 +5,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use common::{archive_entry, built_fmu, workspace_root};
@@ -32,15 +32,10 @@ fn copy_checkout(to: &Path) {
     }
 }
 
-/// The build tools `cargo xtask fmu` installed: `$CKCM_TOOLS_DIR` (set by `cargo xtask
-/// test`), else `<workspace>/target/tools`.
+/// The build tools `cargo xtask fmu` installed, where it installs them (`$CKCM_TOOLS_DIR`,
+/// set by `cargo xtask test`, else `<workspace>/target/tools`).
 fn installed_tools() -> Tools {
-    let tools = Tools::in_dir(
-        std::env::var_os("CKCM_TOOLS_DIR")
-            .filter(|d| !d.is_empty())
-            .map(PathBuf::from)
-            .unwrap_or_else(|| workspace_root().join("target/tools")),
-    );
+    let tools = Tools::from_env(&workspace_root().join("target"));
     assert!(
         tools.cargo_zigbuild().is_file() && tools.python().is_file(),
         "cargo-zigbuild or Zig is missing from {}: run `cargo xtask fmu` (or point \

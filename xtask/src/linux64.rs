@@ -11,20 +11,14 @@ use fmu_build::linux64::{self, CARGO_ZIGBUILD_VERSION, Tools, ZIGLANG_VERSION};
 
 use crate::{cargo, output, python, run, target_dir};
 
-/// The environment variable naming the tools' folder, read by the tests too.
-pub const TOOLS_DIR_VAR: &str = "CKCM_TOOLS_DIR";
-
-/// `$CKCM_TOOLS_DIR`, else `<target dir>/tools`.
-pub fn tools_dir(root: &Path) -> PathBuf {
-    std::env::var_os(TOOLS_DIR_VAR)
-        .filter(|d| !d.is_empty())
-        .map(PathBuf::from)
-        .unwrap_or_else(|| target_dir(root).join("tools"))
+/// Where the tools are (`Tools::from_env`), installed or not.
+pub fn tools(root: &Path) -> Tools {
+    Tools::from_env(&target_dir(root))
 }
 
 /// Installs whichever of the two tools is missing or of another version.
 pub fn ensure_tools(root: &Path) -> Result<Tools> {
-    let tools = Tools::in_dir(tools_dir(root));
+    let tools = tools(root);
     let zig = output(Command::new(tools.python()).args(["-m", "ziglang", "version"])).ok();
     if zig.as_deref().map(str::trim) != Some(ZIGLANG_VERSION) {
         println!(

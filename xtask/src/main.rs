@@ -74,7 +74,10 @@ fn main() -> Result<()> {
                 .args(["test", "--workspace", "--release"])
                 .env("CARGO_TARGET_DIR", target_dir(&root))
                 .env("CKCM_FMU_DIR", target_dir(&root).join("fmu"))
-                .env(linux64::TOOLS_DIR_VAR, linux64::tools_dir(&root))
+                .env(
+                    fmu_build::linux64::TOOLS_DIR_VAR,
+                    linux64::tools(&root).dir(),
+                )
                 .envs(wine_env))?;
             win64::run_abi_tests(&root)?;
             python::run_pytest(&root)?;

@@ -32,10 +32,24 @@ pub struct Tools {
     dir: PathBuf,
 }
 
+/// The environment variable naming the tools' folder.
+pub const TOOLS_DIR_VAR: &str = "CKCM_TOOLS_DIR";
+
 impl Tools {
     /// The tools of `dir`, installed or not.
     pub fn in_dir(dir: impl Into<PathBuf>) -> Self {
         Self { dir: dir.into() }
+    }
+
+    /// The tools of `$CKCM_TOOLS_DIR`, else of `<target_dir>/tools`, where `cargo xtask fmu`
+    /// installs them.
+    pub fn from_env(target_dir: &Path) -> Self {
+        Self::in_dir(
+            std::env::var_os(TOOLS_DIR_VAR)
+                .filter(|d| !d.is_empty())
+                .map(PathBuf::from)
+                .unwrap_or_else(|| target_dir.join("tools")),
+        )
     }
 
     /// The folder holding both tools.
