@@ -33,6 +33,7 @@ use fmi2_import::Fmu;
 use fmi2_md::Shown;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use self::lanes::Failed;
 pub use self::lock::{DirLock, LOCK_FILE};
 use self::writers::Writers;
 use crate::master::{FmuConsole, Master, MasterError, TrialSignals};
@@ -456,6 +457,24 @@ pub fn trial_file(dir: &Path, k: usize, format: RecordFormat) -> PathBuf {
     dir.join("trials").join(format!("trial_{k:03}.{ext}"))
 }
 
+/// Where the recording of trial `k`, which failed, is kept up to its failure: beside the
+/// completed trials, under a name no completed trial's file has, so that reading the
+/// campaign's trials never takes it for one.
+pub fn failed_trial_file(dir: &Path, k: usize, format: RecordFormat) -> PathBuf {
+    let ext = format.exporter().extension();
+    dir.join("trials")
+        .join(format!("trial_{k:03}.failed.{ext}"))
+}
+
+/// The trial of a failed trial's recording ([`failed_trial_file`]'s inverse, any format).
+fn failed_trial_of_file(name: &str) -> Option<usize> {
+    let (k, ext) = name.strip_prefix("trial_")?.split_once(".failed.")?;
+    RecordFormat::value_variants()
+        .iter()
+        .any(|f| f.exporter().extension() == ext)
+        .then(|| k.parse().ok())?
+}
+
 /// The trial and format of a recording's file name ([`trial_file`]'s inverse, any format).
 fn trial_of_file(name: &str) -> Option<(usize, RecordFormat)> {
     let rest = name.strip_prefix("trial_")?;
@@ -796,8 +815,8 @@ fn replace_campaign(
 }
 
 /// On resume after `completed` trials: removes temporary files of interrupted writes,
-/// memory files other than the one trial `completed` reads, and trial files of trials that
-/// will run again.
+/// memory files other than the one trial `completed` reads, and trial files (also those of
+/// failed trials) of trials that will run again.
 fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
     let keep_memory = completed
         .checked_sub(1)
@@ -816,7 +835,8 @@ fn remove_leftovers(dir: &Path, completed: usize) -> Result<(), CampaignError> {
                         .as_ref()
                         .is_none_or(|k| k.as_deref() != Some(&*name)))
                 || (sub.ends_with("trials")
-                    && trial_of_file(&text).is_some_and(|(k, _)| k >= completed));
+                    && (trial_of_file(&text).is_some_and(|(k, _)| k >= completed)
+                        || failed_trial_of_file(&text).is_some_and(|k| k >= completed)));
             if stale {
                 remove_file_if_present(&entry.path())?;
             }
@@ -1062,17 +1082,45 @@ pub fn run_campaign(
                             bar.inc(1000);
                         }
                     })
-                    .map(|()| None),
+                    .map(|()| None)
+                    .map_err(Box::<Failed>::from),
                 (None, Some(lanes)) => lanes.next(k).map(Some),
                 (None, None) => unreachable!("one lane has a master, more have lanes"),
             };
             writers.reap()?;
             let from_lane = match ran {
                 Ok(done) => done,
-                Err(e) => {
+                Err(failed) => {
                     // The trials before succeeded: they are kept either way.
                     writers.finish()?;
-                    return Err(CampaignError::from(e));
+                    let rows = match (&failed.recording, &one_lane) {
+                        (Some(rows), _) => Some(rows),
+                        (None, Some((_, rows, _))) if record_this => Some(rows),
+                        _ => None,
+                    };
+                    // Only into a folder that already holds this campaign: a run whose first
+                    // trial fails leaves nothing, and never touches the campaign `--force`
+                    // would have replaced.
+                    let cancelled = matches!(failed.error, MasterError::Cancelled { .. });
+                    if let Some(rows) = rows.filter(|_| (k > first || resuming) && !cancelled) {
+                        let trials = dir.join("trials");
+                        let kept = match crate::output::create_folder(&trials) {
+                            Err(e) => Err(format!("cannot create {}: {e}", trials.display())),
+                            Ok(()) => {
+                                let path = failed_trial_file(dir, k, format);
+                                write_recorded_rows(&path, rows, format.exporter())
+                                    .map_err(|e| e.to_string())
+                            }
+                        };
+                        if let Err(e) = kept {
+                            bar.suspend(|| {
+                                crate::console!(
+                                    "warning: cannot keep the recording of failed trial {k}: {e}"
+                                );
+                            });
+                        }
+                    }
+                    return Err(CampaignError::from(failed.error));
                 }
             };
             if k == first && !resuming {
@@ -1265,6 +1313,39 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         ] {
             assert_eq!(trial_of_file(name), None, "{name}");
         }
+    }
+
+    /// A failed trial's recording has a name of its own: never taken for a completed trial's
+    /// file, and removed on resume with the trial files of the trials that run again.
+    #[test]
+    fn failed_trial_files_are_named_apart_and_removed_when_their_trial_runs_again() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        fs::create_dir_all(dir.join("trials")).unwrap();
+        for format in [RecordFormat::Csv, RecordFormat::Parquet] {
+            let path = failed_trial_file(dir, 7, format);
+            let name = path.file_name().unwrap().to_str().unwrap();
+            assert_eq!(trial_of_file(name), None, "{name}");
+            assert_eq!(failed_trial_of_file(name), Some(7), "{name}");
+        }
+        for name in [
+            "trial_007.failed.f64",
+            "trial_x.failed.csv",
+            "trial_007.csv",
+            "trial_007failed.csv",
+        ] {
+            assert_eq!(failed_trial_of_file(name), None, "{name}");
+        }
+        let kept = failed_trial_file(dir, 2, RecordFormat::Csv);
+        let stale = failed_trial_file(dir, 3, RecordFormat::Parquet);
+        let own = dir.join("trials").join("notes.txt");
+        for p in [&kept, &stale, &own] {
+            fs::write(p, "x").unwrap();
+        }
+        remove_leftovers(dir, 3).unwrap();
+        assert!(kept.exists(), "trial 2 does not run again");
+        assert!(!stale.exists(), "trial 3 runs again");
+        assert!(own.exists(), "a file of the user's");
     }
 
     /// The λ-norm weights time since the start of the trial, so the same errors give the same

@@ -88,9 +88,17 @@ fn error_at_the_end_stop_is_reported_as_a_failed_call() {
 
 /// An output that is NaN or infinite with fmi2OK (here: a stiff spring that one explicit
 /// substep blows up in trial 1) stops the campaign like a failed call: the message names the
-/// trial, the time, the FMU and the variable, the exit is non-zero, and trial 0 is kept.
+/// trial, the time, the FMU and the variable, the exit is non-zero, and trial 0 is kept,
+/// with trial 1's recording up to the failure beside it, on one lane and on two.
 #[test]
 fn a_non_finite_output_stops_the_run_and_keeps_the_completed_trials() {
+    let one = non_finite_output_run("1");
+    let two = non_finite_output_run("2");
+    assert_eq!(one, two, "trial 1's recording on one lane and on two");
+}
+
+/// Runs the campaign with `--jobs jobs`, checks it, and gives the failed trial's recording.
+fn non_finite_output_run(jobs: &str) -> String {
     let tmp = tempfile::tempdir().unwrap();
     let fmu = foreign_fmu(tmp.path());
     let scenario = tmp.path().join("stiff.toml");
@@ -122,6 +130,7 @@ variables = ["osc.x", "osc.v"]
         .arg(&scenario)
         .arg("--out")
         .arg(&out)
+        .args(["--jobs", jobs])
         .output()
         .unwrap();
     assert!(!o.status.success());
@@ -139,4 +148,40 @@ variables = ["osc.x", "osc.v"]
     assert_eq!(summary.lines().count(), 2, "trial 0 only: {summary}");
     assert!(out.join("trials/trial_000.csv").exists());
     assert!(!out.join("trials/trial_001.csv").exists());
+    // Trial 1's rows up to the failure: one per completed step. The error gives the time of
+    // the non-finite output, the end of the failed step, so the last row is two steps before.
+    let failed = out.join("trials/trial_001.failed.csv");
+    assert!(
+        err.contains(&format!(
+            "\nthe recording of trial 1 up to its failure is in {}",
+            failed.display()
+        )),
+        "{err}"
+    );
+    let t = number_after(&err, "trial 1, t = ");
+    let text = std::fs::read_to_string(&failed).unwrap();
+    let times: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(!times.is_empty(), "{text}");
+    assert_eq!(times[0], 0.0);
+    let last = *times.last().unwrap();
+    assert!(
+        (last - (t - 2.0 * 0.0078125)).abs() < 1e-12,
+        "last row at {last} s, failure at {t} s"
+    );
+    // A resume runs trial 1 again: it fails the same way and keeps its recording again.
+    let o = orchestrator()
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&out)
+        .args(["--jobs", jobs, "--resume"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read_to_string(&failed).unwrap(), text);
+    text
 }

@@ -28,10 +28,26 @@ pub(super) struct Finished {
     pub memory: Vec<Vec<f64>>,
 }
 
+/// What a lane hands the campaign for a failed trial: why, and its recording up to the
+/// failure (if the trial was recorded), which the campaign keeps beside the completed trials.
+pub(super) struct Failed {
+    pub error: MasterError,
+    pub recording: Option<RecordedRows>,
+}
+
+impl From<MasterError> for Box<Failed> {
+    fn from(error: MasterError) -> Self {
+        Box::new(Failed {
+            error,
+            recording: None,
+        })
+    }
+}
+
 enum Report {
     /// The lane's master is set up (or why it is not).
     Ready(Result<(), CampaignError>),
-    Trial(usize, Result<Box<Finished>, MasterError>),
+    Trial(usize, Result<Box<Finished>, Box<Failed>>),
 }
 
 /// One chunk of one channel's memory.
@@ -190,13 +206,14 @@ fn lane(
             &mut link,
         );
         let failed = ran.is_err();
-        let outcome = ran.map(|()| {
-            Box::new(Finished {
+        let outcome = match ran {
+            Ok(()) => Ok(Box::new(Finished {
                 summary: TrialSummary::compute(k, sh.scenario, &signals),
                 recording,
                 memory: master.memory().iter().map(|m| m.to_vec()).collect(),
-            })
-        });
+            })),
+            Err(error) => Err(Box::new(Failed { error, recording })),
+        };
         if reports.send(Report::Trial(k, outcome)).is_err() || failed {
             return;
         }
@@ -206,7 +223,7 @@ fn lane(
 /// The campaign's side of the running lanes.
 pub(super) struct Lanes {
     reports: Receiver<Report>,
-    early: BTreeMap<usize, Result<Box<Finished>, MasterError>>,
+    early: BTreeMap<usize, Result<Box<Finished>, Box<Failed>>>,
 }
 
 impl Lanes {
@@ -300,7 +317,7 @@ impl Lanes {
     }
 
     /// The outcome of trial `k`, waiting for it.
-    pub(super) fn next(&mut self, k: usize) -> Result<Box<Finished>, MasterError> {
+    pub(super) fn next(&mut self, k: usize) -> Result<Box<Finished>, Box<Failed>> {
         loop {
             if let Some(r) = self.early.remove(&k) {
                 return r;
@@ -311,7 +328,7 @@ impl Lanes {
                 }
                 Ok(Report::Ready(_)) => {}
                 // Both lanes ended without reporting k: only after an abort.
-                Err(_) => return Err(MasterError::Cancelled { trial: k }),
+                Err(_) => return Err(MasterError::Cancelled { trial: k }.into()),
             }
         }
     }

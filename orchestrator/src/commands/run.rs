@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use orchestrator::campaign::{CampaignError, CampaignOptions, completed_trials, run_campaign};
+use orchestrator::campaign::{
+    CampaignError, CampaignOptions, completed_trials, failed_trial_file, run_campaign,
+};
 use orchestrator::scenario::Scenario;
 
 use crate::args::RunArgs;
@@ -103,6 +105,15 @@ fn kept_trials_told(
         ),
     };
     message.push_str(&format!("\n{trials} in {}", out.display()));
+    if let (true, Kept::Trials(n)) = (fmu_failed, &kept) {
+        let failed = failed_trial_file(out, *n, scenario.record.format);
+        if failed.is_file() {
+            message.push_str(&format!(
+                "\nthe recording of trial {n} up to its failure is in {}",
+                failed.display()
+            ));
+        }
+    }
     if write_failed {
         message.push_str(&format!(
             "; once the write can succeed (free disk space, for one), `orchestrator run {} \
