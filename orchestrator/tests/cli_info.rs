@@ -171,3 +171,46 @@ fn ckcm_fmu_info_lists_their_interfaces() {
     assert_eq!(variable_line(&controller, "memory[1]")[3], "input");
     assert_eq!(variable_line(&controller, "kp")[3], "parameter");
 }
+
+/// An FMU whose binary cannot run here (none for this platform, or one that does not load)
+/// is still described, for a user reading an FMU built for another platform; the exit
+/// status and the error on stderr say that it cannot run here.
+#[test]
+fn an_fmu_that_cannot_run_here_is_described_and_the_exit_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let here = format!("binaries/{}/", fmi2_import::PLATFORM);
+    let elsewhere = dir.path().join("Elsewhere.fmu");
+    common::repackage(&built_fmu("CkcmPlant"), &elsewhere, |name, bytes| {
+        (!name.starts_with(&here)).then_some(bytes)
+    });
+    let cut = dir.path().join("Cut.fmu");
+    common::repackage(&built_fmu("CkcmPlant"), &cut, |name, bytes| {
+        Some(if name.starts_with(&here) {
+            bytes[..bytes.len() / 2].to_vec()
+        } else {
+            bytes
+        })
+    });
+    for (fmu, platforms, error) in [
+        (
+            &elsewhere,
+            "win64",
+            format!("no binary for this platform ({})", fmi2_import::PLATFORM),
+        ),
+        (&cut, "linux64, win64", "cannot load its binary".to_owned()),
+    ] {
+        let output = orchestrator().arg("info").arg(fmu).output().unwrap();
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{stdout}");
+        assert!(stderr.starts_with("error: "), "{stderr}");
+        assert!(stderr.contains(&error), "{stderr}");
+        let shown = format!(
+            "Platforms        {platforms} (cannot run here, on {}: see the error below)",
+            fmi2_import::PLATFORM
+        );
+        assert!(stdout.contains(&shown), "{shown:?} not in\n{stdout}");
+        assert!(stdout.contains("Variables ("), "{stdout}");
+        assert_eq!(variable_line(&stdout, "force[1]")[2], "Real", "{stdout}");
+    }
+}

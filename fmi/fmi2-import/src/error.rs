@@ -173,6 +173,21 @@ pub enum ImportError {
     },
 }
 
+impl ImportError {
+    /// Whether opening failed only at this platform's binary (missing, not loading, or not
+    /// an FMI 2.0 binary), after the archive and its model description were read and found
+    /// valid: the FMU is sound, it just cannot run here.
+    pub fn is_binary_problem(&self) -> bool {
+        matches!(
+            self,
+            ImportError::MissingBinary { .. }
+                | ImportError::Load { .. }
+                | ImportError::MissingSymbol { .. }
+                | ImportError::Version { .. }
+        )
+    }
+}
+
 /// `the archive has binaries for linux64, win64` or says it has none.
 fn has_platforms(available: &[String]) -> String {
     if available.is_empty() {

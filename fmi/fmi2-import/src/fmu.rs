@@ -78,38 +78,20 @@ fn not_zip_detail(path: &Path, zip_detail: String) -> String {
     format!("it is {kind}; {FMU}")
 }
 
-/// What every instance of an FMU shares. Field order is drop order: the function
-/// pointers go first, then the library is unloaded, then the unpacked files removed.
-#[derive(Debug)]
-pub(crate) struct Loaded {
-    pub(crate) functions: Functions,
-    _library: Library,
-    pub(crate) dir: ExtractionDir,
-}
-
-/// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
-///
-/// Instances keep the library loaded, so they may outlive the `Fmu` they came from. A clone
-/// is another handle to the same loaded library (as with `Arc`), whose instances share its
-/// process-wide state; opening the file again gives a separate copy.
-#[derive(Debug, Clone)]
-pub struct Fmu {
+/// An FMU unpacked with its description parsed and validated, its binary not yet loaded.
+struct Unpacked {
     path: PathBuf,
     md: ModelDescription,
     /// The platform folders under `binaries/` in the archive, sorted.
     platforms: Vec<String>,
-    loaded: Arc<Loaded>,
+    dir: ExtractionDir,
+    identifier: String,
 }
 
-impl Fmu {
-    /// Opens `path`: unzips it, except other platforms' binaries, into a temporary
-    /// directory `fmi2-import-<pid>-*` (removed when the last of the `Fmu` and its
-    /// instances is dropped; see
-    /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
-    /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
-    /// and resolves all 34 FMI 2.0 co-simulation functions.
-    pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
-        let path = path.as_ref().to_path_buf();
+impl Unpacked {
+    /// [`Fmu::open`] up to loading the binary.
+    fn open(path: &Path) -> Result<Unpacked, ImportError> {
+        let path = path.to_path_buf();
         if path.is_dir() {
             let unpacked = path.join("modelDescription.xml").is_file();
             return Err(ImportError::Folder { path, unpacked });
@@ -170,6 +152,64 @@ impl Fmu {
                 },
             })?
             .to_owned();
+        Ok(Unpacked {
+            path,
+            md,
+            platforms,
+            dir,
+            identifier,
+        })
+    }
+}
+
+/// The model description and the platform folders of the FMU at `path`, read and checked
+/// as [`Fmu::open`] reads them, without loading its binary: for a tool that shows an FMU
+/// that cannot run here (no binary for this platform, or one that does not load).
+pub fn read_description(
+    path: impl AsRef<Path>,
+) -> Result<(ModelDescription, Vec<String>), ImportError> {
+    let unpacked = Unpacked::open(path.as_ref())?;
+    Ok((unpacked.md, unpacked.platforms))
+}
+
+/// What every instance of an FMU shares. Field order is drop order: the function
+/// pointers go first, then the library is unloaded, then the unpacked files removed.
+#[derive(Debug)]
+pub(crate) struct Loaded {
+    pub(crate) functions: Functions,
+    _library: Library,
+    pub(crate) dir: ExtractionDir,
+}
+
+/// An opened FMI 2.0 co-simulation FMU: unpacked, validated and loaded.
+///
+/// Instances keep the library loaded, so they may outlive the `Fmu` they came from. A clone
+/// is another handle to the same loaded library (as with `Arc`), whose instances share its
+/// process-wide state; opening the file again gives a separate copy.
+#[derive(Debug, Clone)]
+pub struct Fmu {
+    path: PathBuf,
+    md: ModelDescription,
+    /// The platform folders under `binaries/` in the archive, sorted.
+    platforms: Vec<String>,
+    loaded: Arc<Loaded>,
+}
+
+impl Fmu {
+    /// Opens `path`: unzips it, except other platforms' binaries, into a temporary
+    /// directory `fmi2-import-<pid>-*` (removed when the last of the `Fmu` and its
+    /// instances is dropped; see
+    /// [`remove_extraction_dirs`](super::remove_extraction_dirs) for signals), parses and validates modelDescription.xml,
+    /// requires `<CoSimulation>`, loads `binaries/<platform>/<modelIdentifier>.<ext>`
+    /// and resolves all 34 FMI 2.0 co-simulation functions.
+    pub fn open(path: impl AsRef<Path>) -> Result<Fmu, ImportError> {
+        let Unpacked {
+            path,
+            md,
+            platforms,
+            dir,
+            identifier,
+        } = Unpacked::open(path.as_ref())?;
         let relative = format!("binaries/{PLATFORM}/{identifier}.{SHARED_LIBRARY_EXTENSION}");
         let binary = dir.path().join(&relative);
         if !binary.is_file() {

@@ -21,7 +21,7 @@ mod logger;
 pub use error::ImportError;
 pub use extract::{EXTRACTION_PREFIX, reap_stale_extraction_dirs, remove_extraction_dirs};
 pub use fmi2_sys::{PLATFORM, SHARED_LIBRARY_EXTENSION, Status};
-pub use fmu::{DEFAULT_MAX_UNPACKED_MIB, Fmu, MAX_UNPACKED_VAR, file_uri};
+pub use fmu::{DEFAULT_MAX_UNPACKED_MIB, Fmu, MAX_UNPACKED_VAR, file_uri, read_description};
 pub use functions::SYMBOLS;
 pub use instance::{FmuState, Instance};
 pub use kept::{FileStamp, KeptFmus, file_stamp};

@@ -2,9 +2,12 @@
 //! co-simulation capabilities, default experiment, log categories and a table of variables.
 //!
 //! The FMU is opened fully (unpacked, validated, binary loaded), so `info` also tells whether
-//! it would run here.
+//! it would run here: when only its binary fails (none for this platform, or one that does
+//! not load), the description is still shown and the exit status is the failure's, so that a
+//! user on one platform can read an FMU built for another.
 
 use std::fmt::Write as _;
+use std::path::Path;
 
 use anyhow::{Context, Result};
 use fmi2_import::Fmu;
@@ -17,18 +20,32 @@ use crate::args::InfoArgs;
 
 /// Runs `info`.
 pub fn run(args: InfoArgs) -> Result<()> {
-    let fmu = super::simulate::open_fmu(&args.fmu)?;
-    let text = describe(&fmu);
+    let (text, failed) = match Fmu::open(&args.fmu) {
+        Ok(fmu) => (
+            describe(fmu.path(), fmu.model_description(), &fmu.platforms(), true),
+            None,
+        ),
+        Err(e) if e.is_binary_problem() => {
+            let (md, platforms) = fmi2_import::read_description(&args.fmu)
+                .map_err(|e| super::simulate::open_error(&args.fmu, &e))?;
+            (describe(&args.fmu, &md, &platforms, false), Some(e))
+        }
+        Err(e) => return Err(super::simulate::open_error(&args.fmu, &e)),
+    };
     orchestrator::output::to_stdout(|w| w.write_all(text.as_bytes()))
-        .context("cannot write to standard output")
+        .context("cannot write to standard output")?;
+    match failed {
+        Some(e) => Err(super::simulate::open_error(&args.fmu, &e)),
+        None => Ok(()),
+    }
 }
 
-/// The whole report as text.
-fn describe(fmu: &Fmu) -> String {
-    let md = fmu.model_description();
+/// The whole report as text, for the FMU at `path`; `runs_here` says whether its binary for
+/// this platform loaded.
+fn describe(path: &Path, md: &ModelDescription, platforms: &[String], runs_here: bool) -> String {
     let mut out = String::new();
     // Writing into a String cannot fail; the `let _ =` below discard that impossible error.
-    let _ = writeln!(out, "{}", printable(&fmu.path().display().to_string()));
+    let _ = writeln!(out, "{}", printable(&path.display().to_string()));
     let mut identity = vec![
         ("Model", md.model_name.clone()),
         ("FMI version", md.fmi_version.clone()),
@@ -54,7 +71,7 @@ fn describe(fmu: &Fmu) -> String {
         }
         .to_owned(),
     ));
-    identity.push(("Platforms", platforms(fmu)));
+    identity.push(("Platforms", platforms_shown(platforms, runs_here)));
     out.push_str(&key_values("", &identity));
 
     out.push('\n');
@@ -162,13 +179,19 @@ fn describe(fmu: &Fmu) -> String {
     out
 }
 
-/// The `binaries/` subdirectories present in the archive.
-fn platforms(fmu: &Fmu) -> String {
-    format!(
-        "{} (running here as {})",
-        fmu.platforms().join(", "),
-        fmi2_import::PLATFORM
-    )
+/// The `binaries/` subdirectories present in the archive, and whether one runs here.
+fn platforms_shown(platforms: &[String], runs_here: bool) -> String {
+    let here = fmi2_import::PLATFORM;
+    let listed = if platforms.is_empty() {
+        "none".to_owned()
+    } else {
+        printable(&platforms.join(", ")).to_string()
+    };
+    if runs_here {
+        format!("{listed} (running here as {here})")
+    } else {
+        format!("{listed} (cannot run here, on {here}: see the error below)")
+    }
 }
 
 /// `start 0 s, stop 2 s, step 0.001 s, tolerance not given`.

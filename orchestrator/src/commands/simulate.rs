@@ -46,15 +46,18 @@ pub fn run(args: SimulateArgs) -> Result<()> {
 /// includes its cause, which `{:#}` in `main` would otherwise print a second time. A scenario
 /// or sweep file given here is named as such, with the command that runs it.
 pub(crate) fn open_fmu(path: &Path) -> Result<Fmu> {
-    Fmu::open(path).map_err(|e| {
-        let hint = match &e {
-            fmi2_import::ImportError::NotZip { .. } => run_command_for(path),
-            _ => None,
-        };
-        anyhow::Error::msg(match hint {
-            Some(hint) => format!("{e}\n{hint}"),
-            None => e.to_string(),
-        })
+    Fmu::open(path).map_err(|e| open_error(path, &e))
+}
+
+/// [`open_fmu`]'s report of why the FMU at `path` did not open.
+pub(crate) fn open_error(path: &Path, e: &fmi2_import::ImportError) -> anyhow::Error {
+    let hint = match e {
+        fmi2_import::ImportError::NotZip { .. } => run_command_for(path),
+        _ => None,
+    };
+    anyhow::Error::msg(match hint {
+        Some(hint) => format!("{e}\n{hint}"),
+        None => e.to_string(),
     })
 }
 
