@@ -835,6 +835,30 @@ pub fn value_label(v: &toml::Value) -> String {
 mod tests {
     use super::*;
 
+    /// The sweep files shipped in `scenarios/` load: their axes and their base scenarios'
+    /// text are valid (each case's scenario is checked against the FMUs when it runs).
+    #[test]
+    fn the_shipped_sweep_files_load() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios");
+        let expected = [
+            ("line-noise-sweep.toml", 9, Some(50)),
+            ("robustness-sweep.toml", 96, Some(20)),
+        ];
+        let mut found: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|n| n.ends_with("-sweep.toml"))
+            .collect();
+        found.sort();
+        let names: Vec<&str> = expected.iter().map(|e| e.0).collect();
+        assert_eq!(found, names, "a shipped sweep file without its check here");
+        for (name, cases, trials) in expected {
+            let spec = SweepSpec::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(spec.cases.len(), cases, "{name}");
+            assert_eq!(spec.trials, trials, "{name}");
+        }
+    }
+
     fn spec(sweep: &str) -> Result<SweepSpec, SweepSpecError> {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
