@@ -860,6 +860,20 @@ fn kept_trial_of_other_format(
     })
 }
 
+/// `e`'s message followed by those of its causes, for a warning that has no error chain to
+/// carry them (an I/O error's own reason, "Permission denied", is a cause).
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    for cause in std::iter::successors(e.source(), |c| c.source()) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
+}
+
 /// Sets the flag that stops the lanes when dropped.
 struct StopLanes<'a>(&'a AtomicBool);
 
@@ -1102,14 +1116,16 @@ pub fn run_campaign(
                     // trial fails leaves nothing, and never touches the campaign `--force`
                     // would have replaced.
                     let cancelled = matches!(failed.error, MasterError::Cancelled { .. });
-                    if let Some(rows) = rows.filter(|_| (k > first || resuming) && !cancelled) {
+                    let keep = (k > first || resuming) && !cancelled;
+                    // A trial that failed before its first step has no rows to show.
+                    if let Some(rows) = rows.filter(|r| keep && !r.is_empty()) {
                         let trials = dir.join("trials");
                         let kept = match crate::output::create_folder(&trials) {
                             Err(e) => Err(format!("cannot create {}: {e}", trials.display())),
                             Ok(()) => {
                                 let path = failed_trial_file(dir, k, format);
                                 write_recorded_rows(&path, rows, format.exporter())
-                                    .map_err(|e| e.to_string())
+                                    .map_err(|e| with_causes(&e))
                             }
                         };
                         if let Err(e) = kept {
@@ -1313,6 +1329,21 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         ] {
             assert_eq!(trial_of_file(name), None, "{name}");
         }
+    }
+
+    /// A warning without an error chain still gives the operating system's reason.
+    #[test]
+    fn with_causes_keeps_the_reason() {
+        let e = OutputError::Io {
+            path: PathBuf::from("c/trials/trial_001.failed.csv"),
+            source: std::io::Error::from(std::io::ErrorKind::PermissionDenied),
+        };
+        let text = with_causes(&e);
+        assert!(
+            text.starts_with("I/O error on c/trials/trial_001.failed.csv: "),
+            "{text}"
+        );
+        assert!(text.contains("permission denied"), "{text}");
     }
 
     /// A failed trial's recording has a name of its own: never taken for a completed trial's

@@ -748,10 +748,12 @@ impl<'s> Master<'s> {
         on_step: impl FnMut(usize),
         link: &mut L,
     ) -> Result<(), MasterError> {
-        self.start_trial(trial)?;
+        // Cleared before anything can fail: a trial that fails at its start must not hand
+        // back rows of an earlier trial whose buffer this one reuses.
         if let Some(r) = recording.as_deref_mut() {
             r.clear();
         }
+        self.start_trial(trial)?;
         // A failed trial's recording keeps every step up to the failure.
         self.step_trial(trial, recording, signals, on_step, link)?;
         for (ch, m) in self.channels.iter_mut().zip(&self.scenario.memory) {

@@ -185,3 +185,56 @@ variables = ["osc.x", "osc.v"]
     assert_eq!(std::fs::read_to_string(&failed).unwrap(), text);
     text
 }
+
+/// A trial that fails before its first step (here trial 2 starts past the end stop, so
+/// fmi2ExitInitializationMode fails) has no rows: no failed trial's file is written, on one
+/// lane and on two. On one lane the recording buffer it would have filled is one an earlier
+/// trial's writer handed back, still holding that trial's rows, so a file written from it
+/// would have shown another trial.
+#[test]
+fn a_trial_that_fails_at_its_start_leaves_no_recording() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fmu = foreign_fmu(tmp.path());
+    let scenario = tmp.path().join("start.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            r#"step_size = 0.0078125
+stop_time = 20.0
+trials = 4
+[[fmu]]
+name = "osc"
+path = "{}"
+[fmu.parameters]
+x0 = {{ base = 0.0, per_trial = 6.0 }}
+substeps = 5000
+[record]
+variables = ["osc.x", "osc.v"]
+"#,
+            fmu.display()
+        ),
+    )
+    .unwrap();
+    for jobs in ["1", "2"] {
+        let out = tmp.path().join(format!("out-{jobs}"));
+        let o = orchestrator()
+            .arg("run")
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&out)
+            .args(["--jobs", jobs])
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("trial 2"), "{err}");
+        assert!(err.contains("trials 0–1 are kept"), "{err}");
+        assert!(!err.contains("up to its failure"), "{err}");
+        let mut files: Vec<String> = std::fs::read_dir(out.join("trials"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        files.sort();
+        assert_eq!(files, ["trial_000.csv", "trial_001.csv"], "--jobs {jobs}");
+    }
+}

@@ -193,7 +193,11 @@ fn has_platforms(available: &[String]) -> String {
     if available.is_empty() {
         "the archive has no binaries for any platform".into()
     } else {
-        format!("the archive has binaries for {}", available.join(", "))
+        // Folder names come from the archive: escaped, so that they cannot drive a terminal.
+        format!(
+            "the archive has binaries for {}",
+            fmi2_md::printable(&available.join(", "))
+        )
     }
 }
 

@@ -466,25 +466,33 @@ pub enum DependencyKind {
     Discrete,
 }
 
-/// `text` with its control characters written as `\u{..}` and its backslashes doubled, for
-/// names, descriptions and labels shown to a user: a name from a foreign file must not move a
-/// terminal's cursor or clear it, and a name that holds the six characters `\u{1b}` must
-/// still read differently from one that holds ESC.
+/// `text` with its control characters and bidirectional formatting characters written as
+/// `\u{..}` and its backslashes doubled, for names, descriptions and labels shown to a user:
+/// a name from a foreign file must not move a terminal's cursor, clear it or reorder the
+/// text after it, and a name that holds the six characters `\u{1b}` must still read
+/// differently from one that holds ESC.
 pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(|c| c.is_control() || c == '\\') {
+    if !text.chars().any(|c| hidden(c) || c == '\\') {
         return std::borrow::Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len() + 8);
     for c in text.chars() {
         if c == '\\' {
             out.push_str("\\\\");
-        } else if c.is_control() {
+        } else if hidden(c) {
             out.extend(c.escape_unicode());
         } else {
             out.push(c);
         }
     }
     std::borrow::Cow::Owned(out)
+}
+
+/// Characters [`printable`] escapes: control characters, and the bidirectional marks,
+/// embeddings, overrides and isolates, which would reorder what a terminal shows after them.
+fn hidden(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
 }
 
 impl ModelDescription {
@@ -679,5 +687,29 @@ pub(crate) fn allowed_initials(c: Causality, v: Variability) -> Option<InitialRu
         (V::Discrete | V::Continuous, C::Output | C::Local) => Some(C_),
         (V::Continuous, C::Independent) => Some(NONE),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::printable;
+
+    /// Plain text passes unchanged; control and bidirectional formatting characters are
+    /// written as escapes, backslashes doubled, so that no two names read the same.
+    #[test]
+    fn printable_escapes_what_would_drive_or_reorder_a_terminal() {
+        for plain in ["force[1]", "Längen", "x 𝛼", "der(x)"] {
+            assert_eq!(printable(plain), plain);
+        }
+        for (text, shown) in [
+            ("a\u{1b}[31mb", "a\\u{1b}[31mb"),
+            ("a\u{9b}b", "a\\u{9b}b"),
+            ("a\u{202e}b", "a\\u{202e}b"),
+            ("a\u{2066}b\u{2069}", "a\\u{2066}b\\u{2069}"),
+            ("a\u{200f}b", "a\\u{200f}b"),
+            ("a\\u{1b}", "a\\\\u{1b}"),
+        ] {
+            assert_eq!(printable(text), shown, "{text:?}");
+        }
     }
 }

@@ -179,13 +179,14 @@ fn describe(path: &Path, md: &ModelDescription, platforms: &[String], runs_here:
     out
 }
 
-/// The `binaries/` subdirectories present in the archive, and whether one runs here.
+/// The `binaries/` subdirectories present in the archive, and whether one runs here (as
+/// every value of [`key_values`], escaped there).
 fn platforms_shown(platforms: &[String], runs_here: bool) -> String {
     let here = fmi2_import::PLATFORM;
     let listed = if platforms.is_empty() {
         "none".to_owned()
     } else {
-        printable(&platforms.join(", ")).to_string()
+        platforms.join(", ")
     };
     if runs_here {
         format!("{listed} (running here as {here})")
