@@ -860,20 +860,6 @@ fn kept_trial_of_other_format(
     })
 }
 
-/// `e`'s message followed by those of its causes, for a warning that has no error chain to
-/// carry them (an I/O error's own reason, "Permission denied", is a cause).
-fn with_causes(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    for cause in std::iter::successors(e.source(), |c| c.source()) {
-        let c = cause.to_string();
-        if !text.contains(&c) {
-            text.push_str(": ");
-            text.push_str(&c);
-        }
-    }
-    text
-}
-
 /// Sets the flag that stops the lanes when dropped.
 struct StopLanes<'a>(&'a AtomicBool);
 
@@ -1125,7 +1111,7 @@ pub fn run_campaign(
                             Ok(()) => {
                                 let path = failed_trial_file(dir, k, format);
                                 write_recorded_rows(&path, rows, format.exporter())
-                                    .map_err(|e| with_causes(&e))
+                                    .map_err(|e| crate::describe(&e))
                             }
                         };
                         if let Err(e) = kept {
@@ -1333,12 +1319,12 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
 
     /// A warning without an error chain still gives the operating system's reason.
     #[test]
-    fn with_causes_keeps_the_reason() {
+    fn describe_keeps_the_reason() {
         let e = OutputError::Io {
             path: PathBuf::from("c/trials/trial_001.failed.csv"),
             source: std::io::Error::from(std::io::ErrorKind::PermissionDenied),
         };
-        let text = with_causes(&e);
+        let text = crate::describe(&e);
         assert!(
             text.starts_with("I/O error on c/trials/trial_001.failed.csv: "),
             "{text}"

@@ -22,3 +22,19 @@ pub mod scenario;
 pub mod simulate;
 pub mod sweep;
 pub mod variables;
+
+/// The error and its causes, skipping causes whose text the message already contains
+/// (library errors embed their source in their own message): for the CLI's errors, and for
+/// warnings that have no error chain to carry the causes (an I/O error's own reason,
+/// "Permission denied", is a cause).
+pub fn describe(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut msg = e.to_string();
+    for cause in std::iter::successors(e.source(), |c| c.source()) {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+    }
+    msg
+}

@@ -56,7 +56,7 @@ fn main() -> ExitCode {
                     )
                 })
                 .unwrap_or_default();
-            orchestrator::console!("error: {}{hint}", describe(&*e));
+            orchestrator::console!("error: {}{hint}", orchestrator::describe(&*e));
             ExitCode::FAILURE
         }
     }
@@ -70,20 +70,6 @@ fn disk_full(e: &anyhow::Error) -> bool {
             .downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::StorageFull)
     })
-}
-
-/// The error and its causes, skipping causes whose text the message already contains
-/// (library errors embed their source in their own message).
-fn describe(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut msg = e.to_string();
-    for cause in std::iter::successors(e.source(), |c| c.source()) {
-        let c = cause.to_string();
-        if !msg.contains(&c) {
-            msg.push_str(": ");
-            msg.push_str(&c);
-        }
-    }
-    msg
 }
 
 #[cfg(test)]

@@ -4,6 +4,8 @@
 
 mod common;
 
+use std::path::Path;
+
 use common::{foreign_fmu, number_after, orchestrator};
 
 fn scenario(dir: &std::path::Path, discard: bool) -> std::path::PathBuf {
@@ -86,6 +88,21 @@ fn error_at_the_end_stop_is_reported_as_a_failed_call() {
     assert!(!err.contains("discarded"), "{err}");
 }
 
+/// Runs `scenario` into `out` with `args` after it, asserts that the run fails, and gives
+/// its stderr.
+fn failing_run(scenario: &Path, out: &Path, args: &[&str]) -> String {
+    let o = orchestrator()
+        .arg("run")
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 /// An output that is NaN or infinite with fmi2OK (here: a stiff spring that one explicit
 /// substep blows up in trial 1) stops the campaign like a failed call: the message names the
 /// trial, the time, the FMU and the variable, the exit is non-zero, and trial 0 is kept,
@@ -125,16 +142,7 @@ variables = ["osc.x", "osc.v"]
     )
     .unwrap();
     let out = tmp.path().join("out");
-    let o = orchestrator()
-        .arg("run")
-        .arg(&scenario)
-        .arg("--out")
-        .arg(&out)
-        .args(["--jobs", jobs])
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = failing_run(&scenario, &out, &["--jobs", jobs]);
     assert!(err.contains("trial 1, t = "), "{err}");
     assert!(err.contains("FMU \"osc\" returned osc.x = "), "{err}");
     assert!(err.contains("not finite"), "{err}");
@@ -173,15 +181,7 @@ variables = ["osc.x", "osc.v"]
         "last row at {last} s, failure at {t} s"
     );
     // A resume runs trial 1 again: it fails the same way and keeps its recording again.
-    let o = orchestrator()
-        .arg("run")
-        .arg(&scenario)
-        .arg("--out")
-        .arg(&out)
-        .args(["--jobs", jobs, "--resume"])
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
+    failing_run(&scenario, &out, &["--jobs", jobs, "--resume"]);
     assert_eq!(std::fs::read_to_string(&failed).unwrap(), text);
     text
 }
@@ -217,16 +217,7 @@ variables = ["osc.x", "osc.v"]
     .unwrap();
     for jobs in ["1", "2"] {
         let out = tmp.path().join(format!("out-{jobs}"));
-        let o = orchestrator()
-            .arg("run")
-            .arg(&scenario)
-            .arg("--out")
-            .arg(&out)
-            .args(["--jobs", jobs])
-            .output()
-            .unwrap();
-        assert!(!o.status.success());
-        let err = String::from_utf8_lossy(&o.stderr);
+        let err = failing_run(&scenario, &out, &["--jobs", jobs]);
         assert!(err.contains("trial 2"), "{err}");
         assert!(err.contains("trials 0–1 are kept"), "{err}");
         assert!(!err.contains("up to its failure"), "{err}");

@@ -95,7 +95,7 @@ fn kept_trials_told(
     };
     // The whole chain in one message, so that the kept trials come after the reason
     // (`main` skips causes the message already holds).
-    let mut message = crate::describe(&e);
+    let mut message = orchestrator::describe(&e);
     let (trials, goes_on) = match kept {
         Kept::NoneYet => ("no trial is complete".to_owned(), "starts the campaign"),
         Kept::Trials(1) => ("trial 0 is kept".to_owned(), "continues the campaign"),
