@@ -42,14 +42,7 @@ variables = ["osc.x", "osc.v"]
 }
 
 fn run(scenario: &Path, out: &Path, args: &[&str]) -> std::process::Output {
-    orchestrator()
-        .arg("run")
-        .arg(scenario)
-        .arg("--out")
-        .arg(out)
-        .args(args)
-        .output()
-        .unwrap()
+    common::run_scenario(scenario, out, args)
 }
 
 fn stderr(o: &std::process::Output) -> String {

@@ -91,14 +91,7 @@ fn error_at_the_end_stop_is_reported_as_a_failed_call() {
 /// Runs `scenario` into `out` with `args` after it, asserts that the run fails, and gives
 /// its stderr.
 fn failing_run(scenario: &Path, out: &Path, args: &[&str]) -> String {
-    let o = orchestrator()
-        .arg("run")
-        .arg(scenario)
-        .arg("--out")
-        .arg(out)
-        .args(args)
-        .output()
-        .unwrap();
+    let o = common::run_scenario(scenario, out, args);
     assert!(!o.status.success());
     String::from_utf8_lossy(&o.stderr).into_owned()
 }

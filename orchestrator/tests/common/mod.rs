@@ -254,3 +254,15 @@ pub fn number_after(text: &str, marker: &str) -> f64 {
     word.parse()
         .unwrap_or_else(|e| panic!("{word:?} after {marker:?} in {text}: {e}"))
 }
+
+/// `orchestrator run SCENARIO --out OUT ARGS…`, run to its end.
+pub fn run_scenario(scenario: &Path, out: &Path, args: &[&str]) -> std::process::Output {
+    orchestrator()
+        .arg("run")
+        .arg(scenario)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap()
+}
