@@ -38,8 +38,8 @@ pub use self::lock::{DirLock, LOCK_FILE};
 use self::writers::Writers;
 use crate::master::{FmuConsole, Master, MasterError, TrialSignals};
 use crate::output::{
-    CsvExporter, Exporter, OutputError, Prepared, Recording, prepare_atomic, push_csv_record,
-    write_atomic, write_recorded_rows,
+    CsvExporter, Exporter, OutputError, Prepared, RecordedRows, Recording, prepare_atomic,
+    push_csv_record, write_atomic, write_recorded_rows,
 };
 use crate::scenario::{RecordFormat, Scenario, ScenarioError, as_run_text};
 
@@ -860,6 +860,22 @@ fn kept_trial_of_other_format(
     })
 }
 
+/// Writes `rows`, the recording of trial `k` up to its failure, to [`failed_trial_file`].
+fn keep_failed_recording(
+    dir: &Path,
+    k: usize,
+    rows: &RecordedRows,
+    format: RecordFormat,
+) -> Result<(), CampaignError> {
+    let trials = dir.join("trials");
+    crate::output::create_folder(&trials).map_err(|source| CampaignError::CreateDir {
+        path: trials,
+        source,
+    })?;
+    write_recorded_rows(&failed_trial_file(dir, k, format), rows, format.exporter())?;
+    Ok(())
+}
+
 /// Sets the flag that stops the lanes when dropped.
 struct StopLanes<'a>(&'a AtomicBool);
 
@@ -1104,23 +1120,15 @@ pub fn run_campaign(
                     let cancelled = matches!(failed.error, MasterError::Cancelled { .. });
                     let keep = (k > first || resuming) && !cancelled;
                     // A trial that failed before its first step has no rows to show.
-                    if let Some(rows) = rows.filter(|r| keep && !r.is_empty()) {
-                        let trials = dir.join("trials");
-                        let kept = match crate::output::create_folder(&trials) {
-                            Err(e) => Err(format!("cannot create {}: {e}", trials.display())),
-                            Ok(()) => {
-                                let path = failed_trial_file(dir, k, format);
-                                write_recorded_rows(&path, rows, format.exporter())
-                                    .map_err(|e| crate::describe(&e))
-                            }
-                        };
-                        if let Err(e) = kept {
-                            bar.suspend(|| {
-                                crate::console!(
-                                    "warning: cannot keep the recording of failed trial {k}: {e}"
-                                );
-                            });
-                        }
+                    if let Some(rows) = rows.filter(|r| keep && !r.is_empty())
+                        && let Err(e) = keep_failed_recording(dir, k, rows, format)
+                    {
+                        let e = crate::describe(&e);
+                        bar.suspend(|| {
+                            crate::console!(
+                                "warning: cannot keep the recording of failed trial {k}: {e}"
+                            );
+                        });
                     }
                     return Err(CampaignError::from(failed.error));
                 }

@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{foreign_fmu, orchestrator, tree};
+use common::{foreign_fmu, orchestrator, run_scenario as run, tree};
 use orchestrator::campaign::{DirLock, LOCK_FILE};
 
 /// A 3-trial campaign whose memory (the last trial's x, fed back as drive) changes every
@@ -39,10 +39,6 @@ variables = ["osc.x", "osc.v"]
     )
     .unwrap();
     path
-}
-
-fn run(scenario: &Path, out: &Path, args: &[&str]) -> std::process::Output {
-    common::run_scenario(scenario, out, args)
 }
 
 fn stderr(o: &std::process::Output) -> String {

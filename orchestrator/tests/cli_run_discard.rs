@@ -8,7 +8,7 @@ use std::path::Path;
 
 use common::{foreign_fmu, number_after, orchestrator};
 
-fn scenario(dir: &std::path::Path, discard: bool) -> std::path::PathBuf {
+fn scenario(dir: &Path, discard: bool) -> std::path::PathBuf {
     let fmu = foreign_fmu(dir);
     let path = dir.join(format!("limit-{discard}.toml"));
     // A constant drive pushes x past the 0.1 m end stop within the first second.
@@ -161,11 +161,9 @@ variables = ["osc.x", "osc.v"]
     );
     let t = number_after(&err, "trial 1, t = ");
     let text = std::fs::read_to_string(&failed).unwrap();
-    let times: Vec<f64> = text
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').next().unwrap().parse().unwrap())
-        .collect();
+    let rows = orchestrator::output::read_recording_csv(&failed).unwrap();
+    assert_eq!(rows.names, ["osc.x", "osc.v"], "{text}");
+    let times = &rows.time;
     assert!(!times.is_empty(), "{text}");
     assert_eq!(times[0], 0.0);
     let last = *times.last().unwrap();

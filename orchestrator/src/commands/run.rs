@@ -105,14 +105,16 @@ fn kept_trials_told(
         ),
     };
     message.push_str(&format!("\n{trials} in {}", out.display()));
-    if let (true, Kept::Trials(n)) = (fmu_failed, &kept) {
-        let failed = failed_trial_file(out, *n, scenario.record.format);
-        if failed.is_file() {
-            message.push_str(&format!(
-                "\nthe recording of trial {n} up to its failure is in {}",
-                failed.display()
-            ));
-        }
+    // The campaign keeps the failed trial's recording only where it could write it.
+    if fmu_failed
+        && let Kept::Trials(n) = kept
+        && let failed = failed_trial_file(out, n, scenario.record.format)
+        && failed.is_file()
+    {
+        message.push_str(&format!(
+            "\nthe recording of trial {n} up to its failure is in {}",
+            failed.display()
+        ));
     }
     if write_failed {
         message.push_str(&format!(
