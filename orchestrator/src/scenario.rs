@@ -433,6 +433,11 @@ pub fn read_text(path: &Path) -> std::io::Result<String> {
         let bytes = e.as_bytes();
         let message = if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
             "it is UTF-16 text (an editor's \"Unicode\"); save it as UTF-8".to_string()
+        } else if bytes.starts_with(b"PK\x03\x04") {
+            "it is a zip archive (an FMU?), not a scenario or sweep file: `orchestrator info` \
+             describes an FMU, `orchestrator simulate` runs one alone, and a scenario names its \
+             FMUs under [[fmu]]"
+                .to_string()
         } else {
             let at = e.utf8_error().valid_up_to();
             let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
@@ -1534,10 +1539,28 @@ fn parameter_settings(
     let name = key.get_ref();
     let vars = resolve(md, name);
     if vars.is_empty() {
+        // `model.mass = 1` is TOML for a table `model` holding `mass`: the variable
+        // "model.mass" needs its name quoted.
+        let prefix = format!("{name}.");
+        let hint = match value.get_ref() {
+            toml::Value::Table(t)
+                if md
+                    .model_variables
+                    .iter()
+                    .any(|v| v.name.starts_with(&prefix)) =>
+            {
+                let first = t.keys().next().map_or("…", String::as_str);
+                format!(
+                    "; TOML reads an unquoted dot as a table: quote the dotted name, \
+                     \"{prefix}{first}\" = …"
+                )
+            }
+            _ => String::new(),
+        };
         return cx.err(
             key.span(),
             format!(
-                "parameter {name:?}: {} has no variable {name:?}",
+                "parameter {name:?}: {} has no variable {name:?}{hint}",
                 md.model_name
             ),
         );
@@ -1774,6 +1797,7 @@ mod tests {
     <ScalarVariable name="seed" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Integer start="0" min="0" max="2000"/></ScalarVariable>
     <ScalarVariable name="sigma" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Real start="0" min="0"/></ScalarVariable>
     <ScalarVariable name="on" valueReference="3" causality="parameter" variability="fixed" initial="exact"><Boolean start="false"/></ScalarVariable>
+    <ScalarVariable name="model.mass" valueReference="4" causality="parameter" variability="fixed" initial="exact"><Real start="1"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="1"/><Unknown index="3"/></Outputs>
@@ -2004,6 +2028,27 @@ mod tests {
         Scenario::parse(&text, Path::new("s.toml"), |_| {
             ModelDescription::parse(MD).map_err(|e| e.to_string())
         })
+    }
+
+    /// An unquoted dotted name is a TOML table; the error says to quote it, and quoted it
+    /// sets the variable.
+    #[test]
+    fn an_unquoted_dotted_parameter_name_is_told_to_be_quoted() {
+        let err = with_parameters(1, "sigma = 1.0\nmodel.mass = 2.0\n").unwrap_err();
+        assert_eq!(err.line, Some(9), "{err}");
+        assert!(
+            err.to_string().contains(
+                "parameter \"model\": M has no variable \"model\"; TOML reads an unquoted dot \
+                 as a table: quote the dotted name, \"model.mass\" = …"
+            ),
+            "{err}"
+        );
+        // A table under a name no variable starts with gets no such hint.
+        let err = with_parameters(1, "other.mass = 2.0\n").unwrap_err();
+        assert!(!err.to_string().contains("quote"), "{err}");
+        let sc = with_parameters(1, "\"model.mass\" = 2.0\n").unwrap();
+        let s = &sc.fmus[0].settings[0];
+        assert_eq!((s.name.as_str(), s.value_reference), ("model.mass", 4));
     }
 
     /// A value for an output is refused as such, whatever its size.

@@ -530,8 +530,8 @@ fn a_number_of_the_wrong_kind_is_named_in_words() {
 
 /// A scenario saved in another encoding than UTF-8 (Windows editors offer UTF-16 as
 /// "Unicode", and Latin-1) is named with what it is and the line of the first bad byte,
-/// not only "stream did not contain valid UTF-8". A UTF-8 byte-order mark and CRLF line
-/// ends, which the same editors write, are read.
+/// not only "stream did not contain valid UTF-8"; an FMU given instead is named as one. A
+/// UTF-8 byte-order mark and CRLF line ends, which the same editors write, are read.
 #[test]
 fn a_scenario_not_in_utf8_is_named_with_its_encoding() {
     let dir = tempfile::tempdir().unwrap();
@@ -550,6 +550,9 @@ fn a_scenario_not_in_utf8_is_named_with_its_encoding() {
     bytes.splice(at..at + 2, [0xfc]);
     std::fs::write(&latin1, bytes).unwrap();
     run_fails(&latin1, &out).says("line 2 is not UTF-8 text (byte 0xfc)");
+    // An FMU where the scenario belongs is called an archive, not text in a bad encoding.
+    run_fails(&foreign_fmu(dir.path()), &out)
+        .says("cannot read the scenario: it is a zip archive (an FMU?), not a scenario");
     let windows = dir.path().join("windows.toml");
     std::fs::write(&windows, format!("\u{feff}{}", text.replace('\n', "\r\n"))).unwrap();
     orchestrator()
