@@ -38,10 +38,16 @@ def test_fmpy_validate_reports_no_problems(fmu_dir: Path, name: str) -> None:
     assert "No problems found." in run.stdout
 
 
-def simulate_plant(plant_fmu: Path, force: float, **parameters: int | float) -> np.ndarray:
-    """2 s of the plant under a constant force on every leg, with extra parameters; log
-    messages collected."""
-    messages: list[tuple[int, str]] = []
+def simulate_plant(
+    plant_fmu: Path,
+    force: float,
+    messages: list[tuple[int, str]] | None = None,
+    **parameters: int | float,
+) -> np.ndarray:
+    """2 s of the plant under a constant force on every leg, with extra parameters. Its log
+    messages go to `messages` when given; otherwise any problem it logs fails the test."""
+    expected = messages is not None
+    messages = [] if messages is None else messages
     result = simulate_fmu(
         str(plant_fmu),
         fmi_type="CoSimulation",
@@ -51,7 +57,8 @@ def simulate_plant(plant_fmu: Path, force: float, **parameters: int | float) -> 
         output=legs("pose") + legs("velocity"),
         logger=lambda _c, _n, status, _cat, msg: messages.append((status, msg.decode())),
     )
-    assert not [m for m in messages if m[0] > 0], f"plant logged problems: {messages}"
+    if not expected:
+        assert not [m for m in messages if m[0] > 0], f"plant logged problems: {messages}"
     return result
 
 
@@ -83,10 +90,19 @@ def test_plant_holds_home_at_fmpy_default_step_sizes(plant_fmu: Path) -> None:
 
 
 def test_plant_falls_without_forces(plant_fmu: Path) -> None:
-    z = simulate_plant(plant_fmu, 0.0)["pose[3]"]
+    """The platform falls until a leg leaves its stroke; fmpy stops there, and although it
+    leaves debug logging off, the plant's logger call says why (fmi2Discard, category
+    logStatusDiscard: on from instantiation)."""
+    messages: list[tuple[int, str]] = []
+    result = simulate_plant(plant_fmu, 0.0, messages)
+    z = result["pose[3]"]
     assert z[0] == pytest.approx(0.5, abs=1e-12)
     assert z[-1] < z[0] - 1e-2, f"z went from {z[0]} to {z[-1]} m under zero forces"
     assert np.all(np.diff(z[:100]) <= 0.0), "z must decrease from rest"
+    assert 0.5 < result["time"][-1] < 2.0, result["time"][-1]
+    problems = [m for m in messages if m[0] > 0]
+    assert len(problems) == 1 and problems[0][0] == 2, messages  # 2: fmi2Discard
+    assert "fmi2DoStep" in problems[0][1] and "outside its stroke" in problems[0][1], problems
 
 
 def test_controller_alone_matches_hand_computed_pid_and_feedforward(

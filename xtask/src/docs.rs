@@ -24,7 +24,9 @@ fn semantics(model_identifier: &str) -> &'static str {
              supported. The platform starts at rest at home (0, 0, <code>home_height</code>) plus \
              <code>initial_pose</code>.</p>\
              <p>A non-finite input is rejected by fmi2SetReal with fmi2Error naming the variable; a \
-             step whose state would diverge returns fmi2Error with a message, never NaN outputs.</p>\
+             step that would take a leg beyond its stroke, a platform joint to the base plane or \
+             the state to a non-finite value returns fmi2Discard with a message naming the cause \
+             and the time, never NaN outputs.</p>\
              <p>Reference figure: holding all six forces at 28.5315 N keeps the platform at home.</p>"
         }
         "HlcsController" => {

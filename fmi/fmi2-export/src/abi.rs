@@ -382,7 +382,7 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
 
 /// fmi2SetDebugLogging: `nCategories = 0` switches every category of
 /// [`LOG_CATEGORIES`](super::LOG_CATEGORIES) to `loggingOn`, otherwise only the named
-/// ones; an unknown name is an fmi2Error that names it.
+/// ones; an unknown name is skipped with an fmi2Warning that names it.
 ///
 /// # Safety
 /// See the module's safety contract.

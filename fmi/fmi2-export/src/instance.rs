@@ -333,7 +333,11 @@ impl<M: Model> Instance<M> {
             glue: Glue::new(),
             name,
             sink,
-            enabled: [logging_on; 5],
+            // loggingOn switches debug logging; the status categories start on, so a
+            // master that never asks still hears why a step warned or was discarded (FMI 2.0
+            // §2.1.3: with fmi2Warning the logger "was called"). fmi2SetDebugLogging turns
+            // them off.
+            enabled: [logging_on, true, true, true, true],
             index,
             direct,
             accepted: Default::default(),
@@ -364,7 +368,7 @@ impl<M: Model> Instance<M> {
 
     /// Logs `"<function>: <text>"`. Errors and fatal errors always reach the logger so
     /// the master can report why a call failed; other messages only if their category
-    /// is enabled.
+    /// is enabled (warnings and discards are, until the master turns them off).
     pub(crate) fn log(&self, status: Status, function: Function, text: &str) {
         self.log_as(status, function.name(), text);
     }

@@ -149,12 +149,16 @@ fn steps_may_not_pass_the_stop_time() {
 
 /// A model's remark on a step it took ([`fmu_core::Model::take_warning`]) makes that
 /// fmi2DoStep return fmi2Warning: the step stands, the message goes to logStatusWarning
-/// when that category is on, fmi2GetStatus(fmi2DoStepStatus) says Warning, and the instance
-/// steps on.
+/// (on from instantiation, whatever loggingOn, until the master turns it off),
+/// fmi2GetStatus(fmi2DoStepStatus) says Warning, and the instance steps on.
 #[test]
 fn a_step_taken_with_a_warning_stands() {
-    for logging in [true, false] {
-        let fmu = Fmu::with_logging("warn", logging);
+    for (logging_on, turned_off) in [(true, false), (false, false), (false, true)] {
+        let fmu = Fmu::with_logging("warn", logging_on);
+        if turned_off {
+            assert_eq!(fmu.debug_logging(false, &["logStatusWarning"]), Status::Ok);
+        }
+        let logging = !turned_off;
         assert_eq!(fmu.setup(0.0, None), Status::Ok);
         assert_eq!(fmu.enter_init(), Status::Ok);
         assert_eq!(fmu.exit_init(), Status::Ok);

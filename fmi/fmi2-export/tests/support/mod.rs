@@ -713,6 +713,25 @@ impl Fmu {
         })
     }
 
+    /// fmi2SetDebugLogging(`on`, `categories`).
+    pub fn debug_logging(&self, on: bool, categories: &[&str]) -> Status {
+        let names: Vec<CString> = categories
+            .iter()
+            .map(|c| CString::new(*c).expect("category without NUL"))
+            .collect();
+        let ptrs: Vec<*const c_char> = names.iter().map(|c| c.as_ptr()).collect();
+        // SAFETY: our live instance; `ptrs` holds `ptrs.len()` NUL-terminated strings that
+        // outlive the call.
+        status(unsafe {
+            abi::set_debug_logging::<Oscillator>(
+                self.c,
+                Fmi2Boolean::from(on),
+                ptrs.len(),
+                ptrs.as_ptr(),
+            )
+        })
+    }
+
     pub fn enter_init(&self) -> Status {
         // SAFETY: our live instance.
         status(unsafe { abi::enter_initialization_mode::<Oscillator>(self.c) })
