@@ -1,6 +1,6 @@
 //! Command-line arguments (clap derive), validated once in each subcommand module.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 use orchestrator::scenario::RecordFormat;
@@ -73,6 +73,15 @@ pub struct RunArgs {
     /// Abort at the n-th file operation, as if killed (for testing resume).
     #[arg(long, hide = true)]
     pub crash_at: Option<usize>,
+}
+
+impl RunArgs {
+    /// `--out`, or its default `results/<scenario file stem>`.
+    pub fn out_dir(&self) -> PathBuf {
+        self.out.clone().unwrap_or_else(|| {
+            PathBuf::from("results").join(self.scenario.file_stem().unwrap_or_default())
+        })
+    }
 }
 
 /// `simulate`. A negative number after an option is its value: `--start-time -1` is a start
@@ -260,6 +269,15 @@ pub struct SweepArgs {
     /// Ask the FMUs for debug logging (messages go to stderr).
     #[arg(long)]
     pub fmu_logging: bool,
+}
+
+impl SweepArgs {
+    /// `--out`, or its default `results/<sweep file stem>`.
+    pub fn out_dir(&self, file: &Path) -> PathBuf {
+        self.out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("results").join(file.file_stem().unwrap_or_default()))
+    }
 }
 
 /// Subcommands of `sweep`.

@@ -5,6 +5,7 @@
 mod args;
 mod commands;
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -16,24 +17,23 @@ fn main() -> ExitCode {
     let cli = args::Cli::parse();
     // What continues the work after a signal, and after a full disk (`run` names its kept
     // trials itself, for any failed write: commands/run.rs).
-    let (resume, study) = match cli.command {
-        args::Command::Run(_) => ("; `run --resume` continues the campaign", None),
-        args::Command::Sweep(_) => (
-            "; `sweep --resume` continues the sweep",
-            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep"),
-        ),
-        args::Command::Paper(_) => (
-            "; `paper --resume` continues the study",
-            Some("`paper --resume`, with the same options, continues the study"),
-        ),
-        _ => ("", None),
+    let study = match cli.command {
+        args::Command::Sweep(_) => {
+            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep")
+        }
+        args::Command::Paper(_) => {
+            Some("`paper --resume`, with the same options, continues the study")
+        }
+        _ => None,
     };
+    let resume = Resume::of(&cli.command);
     // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
     // exiting. Result files need nothing: each is written to a temporary file and renamed,
     // and `--resume` removes temporaries an interrupted run left behind. Without a handler
     // (if installing it fails) the next start reaps the folders instead.
     let _ = ctrlc::set_handler(move || {
         let removed = fmi2_import::remove_extraction_dirs();
+        let resume = resume.as_ref().map_or_else(String::new, Resume::hint);
         orchestrator::console!("interrupted: removed {removed} FMU extraction folder(s){resume}");
         std::process::exit(EXIT_INTERRUPTED);
     });
@@ -58,6 +58,66 @@ fn main() -> ExitCode {
                 .unwrap_or_default();
             orchestrator::console!("error: {}{hint}", orchestrator::describe(&*e));
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// The command that continues a `run`, `sweep` or `paper` after an interruption, and the
+/// file whose presence says there is something to continue.
+struct Resume {
+    command: String,
+    what: &'static str,
+    begun: PathBuf,
+}
+
+impl Resume {
+    fn of(command: &args::Command) -> Option<Self> {
+        match command {
+            args::Command::Run(a) => {
+                let out = a.out_dir();
+                // The saved scenario carries the trial count run (`--trials` included).
+                Some(Self {
+                    command: format!(
+                        "orchestrator run {} --out {} --resume",
+                        out.join("scenario.toml").display(),
+                        out.display()
+                    ),
+                    what: "the campaign",
+                    begun: out.join("progress.toml"),
+                })
+            }
+            args::Command::Sweep(a) => {
+                let file = a.sweep.as_ref()?;
+                let out = a.out_dir(file);
+                let shard = a
+                    .shard
+                    .as_ref()
+                    .map_or_else(String::new, |k| format!(" --shard {k}"));
+                Some(Self {
+                    command: format!(
+                        "orchestrator sweep {} --out {}{shard} --resume",
+                        file.display(),
+                        out.display()
+                    ),
+                    what: "the sweep",
+                    begun: out.join("sweep.toml"),
+                })
+            }
+            args::Command::Paper(a) => Some(Self {
+                command: "paper --resume".into(),
+                what: "the study, with the same options",
+                begun: a.out.clone(),
+            }),
+            _ => None,
+        }
+    }
+
+    /// What the interruption message adds: the command, or that nothing is kept to resume.
+    fn hint(&self) -> String {
+        if self.begun.exists() {
+            format!("; `{}` continues {}", self.command, self.what)
+        } else {
+            "; nothing was kept yet, so there is nothing to resume".into()
         }
     }
 }

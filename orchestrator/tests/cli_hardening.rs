@@ -278,10 +278,13 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
             assert_eq!(extraction_dirs(&temp).len(), copies, "the FMU is unpacked");
         });
         assert_eq!(code, Some(130), "SIG{signal}");
+        // The command to continue names the saved scenario, which holds the trial count run.
         assert!(
             err.contains(&format!(
                 "interrupted: removed {copies} FMU extraction folder(s); \
-                 `run --resume` continues the campaign\n"
+                 `orchestrator run {} --out {} --resume` continues the campaign\n",
+                out.join("scenario.toml").display(),
+                out.display()
             )),
             "{err}"
         );
@@ -304,10 +307,75 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
     let (code, err) = interrupt(paper, &temp, &ready, "TERM", || {});
     assert_eq!(code, Some(130));
     assert!(
-        err.contains("FMU extraction folder(s); `paper --resume` continues the study\n"),
+        err.contains(
+            "FMU extraction folder(s); `paper --resume` continues the study, with the same \
+             options\n"
+        ),
         "{err}"
     );
     assert!(extraction_dirs(&temp).is_empty());
+
+    // Interrupted before anything was kept (here while still reading its scenario from a
+    // FIFO), `run` says there is nothing to resume instead of offering `--resume`.
+    let fifo = tmp.path().join("scenario.fifo");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let out = tmp.path().join("out-fifo");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .arg("run")
+        .arg(&fifo)
+        .arg("--out")
+        .arg(&out)
+        .env("TMPDIR", &temp)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Opening the write end without blocking succeeds only once the run opened the read
+    // end, which it does after installing its signal handler; held open and unwritten, it
+    // keeps the run waiting for the rest of its scenario.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let writer = loop {
+        use std::os::unix::fs::OpenOptionsExt;
+        const O_NONBLOCK: i32 = 0o4000;
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&fifo)
+        {
+            Ok(w) => break w,
+            Err(e) if Instant::now() < deadline => {
+                assert_eq!(e.raw_os_error(), Some(6), "ENXIO until a reader opens: {e}");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Err(e) => panic!("the run never opened its scenario: {e}"),
+        }
+    };
+    assert!(
+        Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let output = child.wait_with_output().unwrap();
+    drop(writer);
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains(
+            "FMU extraction folder(s); nothing was kept yet, so there is nothing to resume\n"
+        ),
+        "{err}"
+    );
+    assert!(
+        !out.exists(),
+        "an interrupted run that kept nothing leaves no folder"
+    );
 
     // SIGKILL leaves the folder; the next start reaps it (its pid is dead), and leaves
     // folders of running processes alone.

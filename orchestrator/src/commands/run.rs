@@ -1,6 +1,6 @@
 //! `run SCENARIO.toml`: every trial of a scenario, persisted after each trial.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Result;
 use orchestrator::campaign::{
@@ -32,9 +32,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(format) = args.record_format {
         scenario.record.format = format;
     }
-    let out_dir = args.out.unwrap_or_else(|| {
-        PathBuf::from("results").join(args.scenario.file_stem().unwrap_or_default())
-    });
+    let out_dir = args.out_dir();
     refuse_to_overwrite_the_scenario(&args.scenario, &out_dir)?;
     let opts = CampaignOptions {
         out_dir: out_dir.clone(),

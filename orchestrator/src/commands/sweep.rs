@@ -1,8 +1,6 @@
 //! `sweep SWEEP.toml`: one campaign per case, locally in parallel or as one shard of many;
 //! `sweep merge`: the shards' folders combined into the results of an unsharded run.
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result, bail};
 use orchestrator::sweep::{SweepOptions, SweepSpec, merge, run_sweep};
 
@@ -31,15 +29,13 @@ pub fn run(args: SweepArgs) -> Result<()> {
         orchestrator::console!("merged {} shards into {}", m.shards.len(), m.out.display());
         return Ok(());
     }
-    let file = args.sweep.context("a sweep file is required")?;
+    let file = args.sweep.clone().context("a sweep file is required")?;
     let shard = args.shard.as_deref().map(parse_shard).transpose()?;
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get));
     let spec = SweepSpec::load(&file)?;
-    let out = args
-        .out
-        .unwrap_or_else(|| PathBuf::from("results").join(file.file_stem().unwrap_or_default()));
+    let out = args.out_dir(&file);
     let opts = SweepOptions {
         out_dir: out.clone(),
         jobs,
