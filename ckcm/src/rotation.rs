@@ -32,11 +32,17 @@ pub fn quaternion_from_euler_zyx(alpha: f64, beta: f64, gamma: f64) -> UnitQuate
 }
 
 /// Z-Y-X Euler angles (alpha, beta, gamma) of a rotation matrix; beta in [−π/2, π/2].
-/// At the singularity |beta| = π/2 gamma is set to zero.
+///
+/// beta comes from atan2(sin β, cos β), exact to rounding at every angle (asin loses about
+/// half the digits near ±π/2). Where cos β < [`GIMBAL_LOCK_COS`] alpha and gamma are no
+/// longer told apart by the matrix (gimbal lock): gamma is set to zero and alpha takes the
+/// whole rotation about z. The threshold balances the two errors, the rounding of the
+/// regular formulas (about 1e-16 / cos β) and gamma's share dropped here (about cos β).
 #[inline]
 pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
-    let beta = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
-    if r[(2, 0)].abs() < 1.0 - 1e-12 {
+    let cos_beta = (r[(0, 0)] * r[(0, 0)] + r[(1, 0)] * r[(1, 0)]).sqrt();
+    let beta = (-r[(2, 0)]).atan2(cos_beta);
+    if cos_beta >= GIMBAL_LOCK_COS {
         let alpha = r[(1, 0)].atan2(r[(0, 0)]);
         let gamma = r[(2, 1)].atan2(r[(2, 2)]);
         (alpha, beta, gamma)
@@ -45,6 +51,10 @@ pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
         (alpha, beta, 0.0)
     }
 }
+
+/// cos β below which [`euler_zyx_from_rotation`] reports gamma = 0 (β within 1e-8 rad of
+/// ±π/2).
+pub const GIMBAL_LOCK_COS: f64 = 1e-8;
 
 /// Z-Y-X Euler angles of a unit quaternion.
 #[inline]
@@ -71,6 +81,27 @@ mod tests {
             let (a2, b2, g2) = euler_zyx_from_rotation(&r);
             assert!((rotation_from_euler_zyx(a2, b2, g2) - r).norm() < 1e-13);
             assert!((a2 - a).abs() < 1e-12 && (b2 - b).abs() < 1e-12 && (g2 - g).abs() < 1e-12);
+        }
+    }
+
+    /// Near gimbal lock the angles still rebuild the rotation and beta stays exact: before,
+    /// within 1e-12 of |sin β| = 1 (β within 1.4e-6 rad of ±π/2) gamma was dropped, off by
+    /// up to cos β · |sin γ| in the rebuilt matrix, and asin put beta off by as much as 6e-9.
+    #[test]
+    fn angles_near_gimbal_lock_rebuild_the_rotation() {
+        for sign in [1.0, -1.0] {
+            for offset in [1e-5, 1e-6, 1e-7, 2e-8, 5e-9, 1e-12, 0.0] {
+                let (a, b, g) = (0.3, sign * (std::f64::consts::FRAC_PI_2 - offset), 0.7);
+                let r = rotation_from_euler_zyx(a, b, g);
+                let (a2, b2, g2) = euler_zyx_from_rotation(&r);
+                let rebuilt = rotation_from_euler_zyx(a2, b2, g2);
+                assert!(
+                    (rebuilt - r).amax() < 2e-8,
+                    "β = ±π/2 ∓ {offset}: rebuilt off by {:e}",
+                    (rebuilt - r).amax()
+                );
+                assert!((b2 - b).abs() < 1e-15, "β = ±π/2 ∓ {offset}: {b2} for {b}");
+            }
         }
     }
 
