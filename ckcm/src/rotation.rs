@@ -33,15 +33,22 @@ pub fn quaternion_from_euler_zyx(alpha: f64, beta: f64, gamma: f64) -> UnitQuate
 
 /// Z-Y-X Euler angles (alpha, beta, gamma) of a rotation matrix; beta in [−π/2, π/2].
 ///
-/// beta comes from atan2(sin β, cos β), exact to rounding at every angle (asin loses about
-/// half the digits near ±π/2). Where cos β < [`GIMBAL_LOCK_COS`] alpha and gamma are no
+/// beta comes from atan2(sin β, cos β) beyond ±π/6, exact to rounding up to ±π/2 (where
+/// asin loses about half the digits), and from asin within. Where cos β < [`GIMBAL_LOCK_COS`] alpha and gamma are no
 /// longer told apart by the matrix (gimbal lock): gamma is set to zero and alpha takes the
 /// whole rotation about z. The threshold balances the two errors, the rounding of the
 /// regular formulas (about 1e-16 / cos β) and gamma's share dropped here (about cos β).
 #[inline]
 pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
     let cos_beta = (r[(0, 0)] * r[(0, 0)] + r[(1, 0)] * r[(1, 0)]).sqrt();
-    let beta = (-r[(2, 0)]).atan2(cos_beta);
+    let sin_beta = -r[(2, 0)];
+    // asin is as exact where |sin β| ≤ 1/2 and cheaper: the poses a trial reads every step
+    // keep their bits and their cost (BENCHMARKS.md, round 54).
+    let beta = if sin_beta.abs() <= 0.5 {
+        sin_beta.asin()
+    } else {
+        sin_beta.atan2(cos_beta)
+    };
     if cos_beta >= GIMBAL_LOCK_COS {
         let alpha = r[(1, 0)].atan2(r[(0, 0)]);
         let gamma = r[(2, 1)].atan2(r[(2, 2)]);
