@@ -212,5 +212,26 @@ fn an_fmu_that_cannot_run_here_is_described_and_the_exit_says_why() {
         assert!(stdout.contains(&shown), "{shown:?} not in\n{stdout}");
         assert!(stdout.contains("Variables ("), "{stdout}");
         assert_eq!(variable_line(&stdout, "force[1]")[2], "Real", "{stdout}");
+        // With nowhere to print the description, the binary's problem is still the error.
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .arg("info")
+            .arg(fmu)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{stderr}");
+        assert!(
+            stderr.starts_with("warning: cannot write to standard output"),
+            "{stderr}"
+        );
+        assert!(
+            stderr.contains(&format!("\nerror: ")) && stderr.contains(&error),
+            "{stderr}"
+        );
     }
 }

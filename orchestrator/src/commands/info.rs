@@ -32,11 +32,17 @@ pub fn run(args: InfoArgs) -> Result<()> {
         }
         Err(e) => return Err(super::simulate::open_error(&args.fmu, &e)),
     };
-    orchestrator::output::to_stdout(|w| w.write_all(text.as_bytes()))
-        .context("cannot write to standard output")?;
+    let written = orchestrator::output::to_stdout(|w| w.write_all(text.as_bytes()))
+        .context("cannot write to standard output");
     match failed {
-        Some(e) => Err(super::simulate::open_error(&args.fmu, &e)),
-        None => Ok(()),
+        // The FMU's own problem is the answer; a lost description is only a warning then.
+        Some(e) => {
+            if let Err(w) = written {
+                orchestrator::console!("warning: {}", orchestrator::describe(&*w));
+            }
+            Err(super::simulate::open_error(&args.fmu, &e))
+        }
+        None => written,
     }
 }
 
