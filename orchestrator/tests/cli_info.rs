@@ -230,7 +230,7 @@ fn an_fmu_that_cannot_run_here_is_described_and_the_exit_says_why() {
             "{stderr}"
         );
         assert!(
-            stderr.contains(&format!("\nerror: ")) && stderr.contains(&error),
+            stderr.contains("\nerror: ") && stderr.contains(&error),
             "{stderr}"
         );
     }
