@@ -16,17 +16,12 @@ const EXIT_INTERRUPTED: i32 = 130;
 fn main() -> ExitCode {
     let cli = args::Cli::parse();
     // What continues the work after a signal, and after a full disk (`run` names its kept
-    // trials itself, for any failed write: commands/run.rs).
-    let study = match cli.command {
-        args::Command::Sweep(_) => {
-            Some("`sweep --resume`, with the same sweep file and --out, continues the sweep")
-        }
-        args::Command::Paper(_) => {
-            Some("`paper --resume`, with the same options, continues the study")
-        }
-        _ => None,
-    };
+    // trials and its resume command itself, for any failed write: commands/run.rs).
     let resume = Resume::of(&cli.command);
+    let after_full_disk = resume
+        .as_ref()
+        .filter(|_| !matches!(cli.command, args::Command::Run(_)))
+        .map(Resume::continues);
     // On SIGINT, SIGTERM or SIGHUP, remove the FMUs' extraction folders (≈ 7 MB each) before
     // exiting. Result files need nothing: each is written to a temporary file and renamed,
     // and `--resume` removes temporaries an interrupted run left behind. Without a handler
@@ -48,7 +43,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let hint = study
+            let hint = after_full_disk
                 .filter(|_| disk_full(&e))
                 .map(|resume| {
                     format!(
@@ -112,10 +107,15 @@ impl Resume {
         }
     }
 
+    /// "`COMMAND` continues WHAT".
+    fn continues(&self) -> String {
+        format!("`{}` continues {}", self.command, self.what)
+    }
+
     /// What the interruption message adds: the command, or that nothing is kept to resume.
     fn hint(&self) -> String {
         if self.begun.exists() {
-            format!("; `{}` continues {}", self.command, self.what)
+            format!("; {}", self.continues())
         } else {
             "; nothing was kept yet, so there is nothing to resume".into()
         }
