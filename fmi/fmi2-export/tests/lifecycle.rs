@@ -442,56 +442,54 @@ fn logger_always_gets_percent_s_and_the_text_verbatim() {
 
 #[test]
 fn debug_logging_filters_categories_but_never_errors() {
-    let fmu = Fmu::with_logging("cats", false);
-    // Logging off: events are not passed, errors are.
-    assert_eq!(fmu.setup(0.0, None), Status::Ok);
-    assert!(fmu.log.records().is_empty());
+    // Logging off: events are not passed; the status categories are, from instantiation.
+    let on = Fmu::with_logging("on", false);
+    assert_eq!(on.setup(0.0, None), Status::Ok);
+    assert_eq!(on.enter_init(), Status::Ok);
+    assert_eq!(on.exit_init(), Status::Ok);
+    assert!(on.log.records().is_empty(), "{:?}", on.log.messages());
+    assert_eq!(
+        on.set_integer(&[vr::FAIL_MODE], &[fail::DISCARD]),
+        Status::Ok
+    );
+    assert_eq!(on.do_step(0.0, 0.01), Status::Discard);
+    let records = on.log.records();
+    assert_eq!(records.len(), 1, "{records:?}");
+    assert_eq!(records[0].category, "logStatusDiscard");
+    assert!(records[0].message.starts_with("fmi2DoStep: "));
 
-    let cats = [CString::new("logStatusDiscard").unwrap()];
-    let ptrs: Vec<_> = cats.iter().map(|c| c.as_ptr()).collect();
-    // SAFETY: one valid category string.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(fmu.c, 1, ptrs.len(), ptrs.as_ptr()) };
-    assert_eq!(status(s), Status::Ok);
+    // A category switched off is filtered.
+    let fmu = Fmu::with_logging("cats", false);
+    assert_eq!(fmu.debug_logging(false, &["logStatusDiscard"]), Status::Ok);
+    assert_eq!(fmu.setup(0.0, None), Status::Ok);
     assert_eq!(fmu.enter_init(), Status::Ok);
     assert_eq!(fmu.exit_init(), Status::Ok);
-    assert!(
-        fmu.log.records().is_empty(),
-        "logEvents still off: {:?}",
-        fmu.log.messages()
-    );
     assert_eq!(
         fmu.set_integer(&[vr::FAIL_MODE], &[fail::DISCARD]),
         Status::Ok
     );
     assert_eq!(fmu.do_step(0.0, 0.01), Status::Discard);
-    let records = fmu.log.records();
-    assert_eq!(records.len(), 1, "{records:?}");
-    assert_eq!(records[0].category, "logStatusDiscard");
-    assert!(records[0].message.starts_with("fmi2DoStep: "));
+    assert!(
+        fmu.log.records().is_empty(),
+        "logStatusDiscard and logEvents off: {:?}",
+        fmu.log.messages()
+    );
 
     // n = 0 switches all categories.
     // SAFETY: n = 0 with NULL categories is legal.
     let s = unsafe { abi::set_debug_logging::<Oscillator>(fmu.c, 1, 0, ptr::null()) };
     assert_eq!(status(s), Status::Ok);
-    fmu.log.clear();
     assert_eq!(fmu.terminate(), Status::Ok);
     assert!(fmu.log.contains("fmi2Terminate: "));
 
     // An unknown category is a warning naming it; the known ones beside it are switched,
     // and the instance goes on.
     let off = Fmu::with_logging("off", true);
-    // SAFETY: n = 0.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(off.c, 0, 0, ptr::null()) };
-    assert_eq!(status(s), Status::Ok);
-    let names = [
-        CString::new("logEverything").unwrap(),
-        CString::new("logStatusWarning").unwrap(),
-        CString::new("logEvents").unwrap(),
-    ];
-    let ptrs: Vec<_> = names.iter().map(|c| c.as_ptr()).collect();
-    // SAFETY: three valid strings.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(off.c, 1, 3, ptrs.as_ptr()) };
-    assert_eq!(status(s), Status::Warning);
+    assert_eq!(off.debug_logging(false, &[]), Status::Ok);
+    assert_eq!(
+        off.debug_logging(true, &["logEverything", "logStatusWarning", "logEvents"]),
+        Status::Warning
+    );
     assert!(off.log.contains(
         "fmi2SetDebugLogging: unknown log category 'logEverything' ignored; this FMU declares"
     ));
@@ -501,22 +499,14 @@ fn debug_logging_filters_categories_but_never_errors() {
 
     // logAll, which many tools send, switches every category.
     let all = Fmu::with_logging("all", true);
-    // SAFETY: n = 0.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(all.c, 0, 0, ptr::null()) };
-    assert_eq!(status(s), Status::Ok);
-    let log_all = [CString::new("logAll").unwrap()];
-    let ptrs: Vec<_> = log_all.iter().map(|c| c.as_ptr()).collect();
-    // SAFETY: one valid string.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(all.c, 1, 1, ptrs.as_ptr()) };
-    assert_eq!(status(s), Status::Ok);
+    assert_eq!(all.debug_logging(false, &[]), Status::Ok);
+    assert_eq!(all.debug_logging(true, &["logAll"]), Status::Ok);
     assert_eq!(all.reset(), Status::Ok);
     assert!(all.log.contains("fmi2Reset: "), "logEvents is on");
 
     // Errors reach the logger even with every category off.
     let quiet = Fmu::new("quiet");
-    // SAFETY: n = 0.
-    let s = unsafe { abi::set_debug_logging::<Oscillator>(quiet.c, 0, 0, ptr::null()) };
-    assert_eq!(status(s), Status::Ok);
+    assert_eq!(quiet.debug_logging(false, &[]), Status::Ok);
     assert_eq!(quiet.do_step(0.0, 0.1), Status::Error);
     assert_eq!(quiet.log.records().len(), 1);
 }
