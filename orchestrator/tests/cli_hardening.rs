@@ -220,12 +220,13 @@ fn extraction_dirs(temp: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Starts `command` with its temporary folder in `temp`, waits until `ready` exists, runs
-/// `check`, sends SIG`signal`, and returns the exit code and what went to stderr.
+/// Starts `command` with its temporary folder in `temp`, waits until `ready()` says so (at
+/// most a minute), runs `check`, sends SIG`signal`, and returns the exit code and what went
+/// to stderr.
 fn interrupt(
     mut command: Command,
     temp: &Path,
-    ready: &Path,
+    mut ready: impl FnMut() -> bool,
     signal: &str,
     check: impl FnOnce(),
 ) -> (Option<i32>, String) {
@@ -235,7 +236,7 @@ fn interrupt(
         .spawn()
         .unwrap();
     let deadline = Instant::now() + Duration::from_secs(60);
-    while !ready.exists() && Instant::now() < deadline {
+    while !ready() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(5));
     }
     check();
@@ -274,9 +275,15 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
             .arg("--out")
             .arg(&out)
             .arg(format!("--jobs={copies}"));
-        let (code, err) = interrupt(run, &temp, &out.join("progress.toml"), signal, || {
-            assert_eq!(extraction_dirs(&temp).len(), copies, "the FMU is unpacked");
-        });
+        let (code, err) = interrupt(
+            run,
+            &temp,
+            || out.join("progress.toml").exists(),
+            signal,
+            || {
+                assert_eq!(extraction_dirs(&temp).len(), copies, "the FMU is unpacked");
+            },
+        );
         assert_eq!(code, Some(130), "SIG{signal}");
         // The command to continue names the saved scenario, which holds the trial count run.
         assert!(
@@ -304,7 +311,7 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
         .arg("--out")
         .arg(&study);
     let ready = study.join("line/pid/progress.toml");
-    let (code, err) = interrupt(paper, &temp, &ready, "TERM", || {});
+    let (code, err) = interrupt(paper, &temp, || ready.exists(), "TERM", || {});
     assert_eq!(code, Some(130));
     assert!(
         err.contains(
@@ -326,46 +333,29 @@ fn signals_remove_the_extraction_folders_and_stale_ones_are_reaped() {
             .success()
     );
     let out = tmp.path().join("out-fifo");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-        .arg("run")
-        .arg(&fifo)
-        .arg("--out")
-        .arg(&out)
-        .env("TMPDIR", &temp)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"));
+    run.arg("run").arg(&fifo).arg("--out").arg(&out);
     // Opening the write end without blocking succeeds only once the run opened the read
     // end, which it does after installing its signal handler; held open and unwritten, it
     // keeps the run waiting for the rest of its scenario.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let writer = loop {
+    let mut writer = None;
+    let opened = || {
         use std::os::unix::fs::OpenOptionsExt;
+        // Linux's O_NONBLOCK (the tests do not depend on libc for one constant).
         const O_NONBLOCK: i32 = 0o4000;
         match std::fs::OpenOptions::new()
             .write(true)
             .custom_flags(O_NONBLOCK)
             .open(&fifo)
         {
-            Ok(w) => break w,
-            Err(e) if Instant::now() < deadline => {
-                assert_eq!(e.raw_os_error(), Some(6), "ENXIO until a reader opens: {e}");
-                std::thread::sleep(Duration::from_millis(5));
-            }
-            Err(e) => panic!("the run never opened its scenario: {e}"),
+            Ok(w) => writer = Some(w),
+            Err(e) => assert_eq!(e.raw_os_error(), Some(6), "ENXIO until a reader opens: {e}"),
         }
+        writer.is_some()
     };
-    assert!(
-        Command::new("kill")
-            .args(["-INT", &child.id().to_string()])
-            .status()
-            .unwrap()
-            .success()
-    );
-    let output = child.wait_with_output().unwrap();
-    drop(writer);
-    let err = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(130), "{err}");
+    let (code, err) = interrupt(run, &temp, opened, "INT", || {});
+    assert!(writer.is_some(), "the run never opened its scenario");
+    assert_eq!(code, Some(130), "{err}");
     assert!(
         err.contains(
             "FMU extraction folder(s); nothing was kept yet, so there is nothing to resume\n"

@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{foreign_fmu, number_after, orchestrator};
+use common::{foreign_fmu, number_after, orchestrator, read_csv};
 
 fn scenario(dir: &Path, discard: bool) -> std::path::PathBuf {
     let fmu = foreign_fmu(dir);
@@ -161,7 +161,7 @@ variables = ["osc.x", "osc.v"]
     );
     let t = number_after(&err, "trial 1, t = ");
     let text = std::fs::read_to_string(&failed).unwrap();
-    let rows = orchestrator::output::read_recording_csv(&failed).unwrap();
+    let rows = read_csv(&failed);
     assert_eq!(rows.names, ["osc.x", "osc.v"], "{text}");
     let times = &rows.time;
     assert!(!times.is_empty(), "{text}");

@@ -212,7 +212,7 @@ pub fn repackage(src: &Path, dst: &Path, edit: impl Fn(&str, Vec<u8>) -> Option<
     out.finish().unwrap();
 }
 
-/// Reads a CSV written by `simulate`.
+/// Reads a recording CSV (`simulate`'s output, or a campaign's trial).
 pub fn read_csv(path: &Path) -> Recording {
     read_recording_csv(path).unwrap_or_else(|e| panic!("{e}"))
 }
