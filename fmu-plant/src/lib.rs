@@ -290,9 +290,9 @@ impl CkcmPlant {
     }
 
     /// The pose's Euler angles `pose[4..6]`, from the current state when a master reads
-    /// them: a master that taps only the position (as the metrics do) saves the square
-    /// root and `atan2`s of every step (BENCHMARKS.md, round 30). Before initialization they read
-    /// as stored.
+    /// them: a master that taps only the position (as the metrics do) saves their libm
+    /// calls of every step (BENCHMARKS.md, round 30). Before initialization they read as
+    /// stored.
     fn derived_reals(&self, runs: &[VrRun], out: &mut [f64]) {
         let Some(sim) = &self.sim else { return };
         // Most reads (the coupling's) ask for none of them: one comparison per run.
