@@ -520,9 +520,9 @@ fn in_plain_words(message: String) -> String {
         return message;
     };
     let (head, ty) = message.split_at(wanted);
-    let (plain, whole) = if WHOLE.contains(&ty) {
-        ("a whole number, 0 or more", true)
-    } else if ["i64", "i32"].contains(&ty) {
+    // Not "0 or more": which keys take 0 (a sweep's `seed`) and which refuse it (`trials`) is
+    // checked, and said, after parsing.
+    let (plain, whole) = if WHOLE.contains(&ty) || ["i64", "i32"].contains(&ty) {
         ("a whole number", true)
     } else if ty == "f64" {
         ("a number", false)
@@ -533,7 +533,9 @@ fn in_plain_words(message: String) -> String {
         .strip_prefix("invalid type: string \"")
         .and_then(|rest| rest.rsplit_once('"'))
         .is_some_and(|(inner, _)| inner.trim().parse::<f64>().is_ok());
-    let how = if whole && head.starts_with("invalid type: floating point") {
+    let how = if WHOLE.contains(&ty) && head.starts_with("invalid value: integer `-") {
+        " (not negative)"
+    } else if whole && head.starts_with("invalid type: floating point") {
         " (written without a decimal point or exponent: 2, not 2.0 or 2e0)"
     } else if quoted_number {
         " (written without quotes)"

@@ -675,7 +675,7 @@ fn bad_sweeps_fail_naming_the_file_and_write_nothing() {
         (
             text.replacen("samples = 2", "samples = 2.0", 1),
             "sweep.toml:14",
-            "invalid type: floating point `2.0`, expected a whole number, 0 or more (written \
+            "invalid type: floating point `2.0`, expected a whole number (written \
              without a decimal point or exponent: 2, not 2.0 or 2e0)",
         ),
         // An axis named like one of sweep.csv's own columns would make two of that name.
