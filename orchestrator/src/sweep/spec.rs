@@ -743,7 +743,7 @@ fn build_axis(
             }
             l.clone()
         }
-        None => values.iter().map(value_label).collect(),
+        None => axis_labels(&values),
     };
     let name = a.name.clone().unwrap_or_else(|| match &target {
         Target::Parameters(ps) => ps
@@ -820,8 +820,25 @@ fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// An axis's values as text for tables and figures, numbers in shortest round-trip form.
+/// Where one of the axis's numbers needs an exponent (`1e-6`), every non-zero one is written
+/// with one, so that a column does not read `1e-6` beside `0.00001`.
+fn axis_labels(values: &[toml::Value]) -> Vec<String> {
+    let exponent = values.iter().any(|v| match v {
+        toml::Value::Float(x) => Shown(*x).to_string().contains('e'),
+        _ => false,
+    });
+    values
+        .iter()
+        .map(|v| match v {
+            toml::Value::Float(x) if exponent && *x != 0.0 && x.is_finite() => format!("{x:e}"),
+            v => value_label(v),
+        })
+        .collect()
+}
+
 /// Compact text of a value for tables: numbers in shortest round-trip form.
-pub fn value_label(v: &toml::Value) -> String {
+fn value_label(v: &toml::Value) -> String {
     match v {
         toml::Value::String(s) => s.clone(),
         toml::Value::Float(x) => Shown(*x).to_string(),
@@ -886,6 +903,23 @@ mod tests {
         assert_eq!(s.cases[1], vec![0, 1]);
         assert_eq!(s.cases[5], vec![1, 2]);
         assert_eq!(s.axes[1].labels, vec!["5", "7.5", "10"]);
+    }
+
+    /// One number of an axis written with an exponent puts every non-zero one in that form.
+    #[test]
+    fn an_axis_writes_its_numbers_in_one_form() {
+        let labels = |values: &str| {
+            let text = format!(
+                "base = \"base.toml\"\n[[axis]]\nparameters = [\"plant.rod_mass\"]\nvalues = {values}\n"
+            );
+            spec(&text).unwrap().axes[0].labels.clone()
+        };
+        assert_eq!(labels("[0.0, 1e-6, 1e-5]"), vec!["0", "1e-6", "1e-5"]);
+        assert_eq!(
+            labels("[2.5e-7, 0.001, 3.0]"),
+            vec!["2.5e-7", "1e-3", "3e0"]
+        );
+        assert_eq!(labels("[0.00001, 0.5]"), vec!["0.00001", "0.5"]);
     }
 
     #[test]
