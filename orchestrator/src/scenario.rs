@@ -1575,6 +1575,17 @@ fn parameter_settings(
         }
     }
     let values: Vec<&toml::Value> = match value.get_ref() {
+        // A list is for an array variable's elements; for a scalar it is a slip (or a
+        // guess at another tool's syntax) that a user should see, not have read as its item.
+        toml::Value::Array(_) if vars.len() == 1 && vars[0].name == *name => {
+            return cx.err(
+                value.span(),
+                format!(
+                    "parameter {name:?} is a single value, not an array: write it without \
+                     brackets"
+                ),
+            );
+        }
         toml::Value::Array(items) => items.iter().collect(),
         single => vec![single],
     };
@@ -2051,6 +2062,22 @@ mod tests {
         let sc = with_parameters(1, "\"model.mass\" = 2.0\n").unwrap();
         let s = &sc.fmus[0].settings[0];
         assert_eq!((s.name.as_str(), s.value_reference), ("model.mass", 4));
+    }
+
+    /// A scalar given a list of one is refused, not read as the list's item.
+    #[test]
+    fn a_scalar_given_a_list_is_refused() {
+        for value in ["[1.0]", "[1.0, 2.0]", "[]"] {
+            let err = with_parameters(1, &format!("sigma = {value}\n")).unwrap_err();
+            assert_eq!(err.line, Some(8), "{err}");
+            assert!(
+                err.message.contains(
+                    "parameter \"sigma\" is a single value, not an array: write it without brackets"
+                ),
+                "{value}: {err}"
+            );
+        }
+        assert!(with_parameters(1, "sigma = 1.0\n").is_ok());
     }
 
     /// A value for an output is refused as such, whatever its size.
