@@ -715,6 +715,9 @@ pub(crate) fn is_temporary(name: &str) -> bool {
 }
 
 /// Files in `dir` other than the lock file, for the message refusing a new campaign.
+/// The names in `dir` that a new campaign must not take the place of: all but the lock, and
+/// but a `trials` folder holding only the recording of a first trial that failed (a run
+/// that failed there leaves only that, and the next run may start in its folder).
 fn existing_files(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = fs::read_dir(dir)
         .map(|entries| {
@@ -725,8 +728,21 @@ fn existing_files(dir: &Path) -> Vec<String> {
                 .collect()
         })
         .unwrap_or_default();
+    if names.len() == 1 && names[0] == "trials" && holds_only_failed_first_trial(dir) {
+        names.clear();
+    }
     names.sort();
     names
+}
+
+/// Whether `dir/trials` holds nothing but failed first trials' recordings (or nothing).
+fn holds_only_failed_first_trial(dir: &Path) -> bool {
+    fs::read_dir(dir.join("trials")).is_ok_and(|entries| {
+        entries.filter_map(Result::ok).all(|e| {
+            failed_trial_of_file(&e.file_name().to_string_lossy()) == Some(0)
+                && e.file_type().is_ok_and(|t| t.is_file())
+        })
+    })
 }
 
 fn remove_file_if_present(path: &Path) -> Result<(), CampaignError> {
@@ -909,6 +925,9 @@ pub fn run_campaign(
     let mut initial: Option<Vec<Vec<f64>>> = None;
     let progress_file = dir.join("progress.toml");
     let resuming = opts.resume && progress_file.exists();
+    // A folder that holds no campaign (nor anything else) may keep a failed first trial's
+    // recording; one holding a campaign that `--force` would replace may not.
+    let fresh = !resuming && existing_files(dir).is_empty();
     if resuming {
         let resume_err = |message: String| CampaignError::Resume {
             dir: dir.clone(),
@@ -1114,11 +1133,18 @@ pub fn run_campaign(
                         (None, Some((_, rows, _))) if record_this => Some(rows),
                         _ => None,
                     };
-                    // Only into a folder that already holds this campaign: a run whose first
-                    // trial fails leaves nothing, and never touches the campaign `--force`
-                    // would have replaced.
+                    // Into a folder that holds this campaign, or none: a run whose first
+                    // trial fails never touches the campaign `--force` would have replaced.
                     let cancelled = matches!(failed.error, MasterError::Cancelled { .. });
-                    let keep = (k > first || resuming) && !cancelled;
+                    let keep = (k > first || resuming || fresh) && !cancelled;
+                    // An earlier run's failed first trial (in either format) is not this one's.
+                    if keep
+                        && k == 0
+                        && let Err(e) = remove_leftovers(dir, 0)
+                    {
+                        let e = crate::describe(&e);
+                        bar.suspend(|| crate::console!("warning: {e}"));
+                    }
                     // A trial that failed before its first step has no rows to show.
                     if let Some(rows) = rows.filter(|r| keep && !r.is_empty())
                         && let Err(e) = keep_failed_recording(dir, k, rows, format)
@@ -1144,7 +1170,8 @@ pub fn run_campaign(
                 }
                 crash.tick();
             }
-            // Folders appear only once a trial has succeeded: a run that fails at once leaves nothing.
+            // Folders appear once a trial has succeeded (or, holding only its rows, once a
+            // first trial failed in a folder without a campaign).
             for sub in ["trials", "memory"] {
                 let p = dir.join(sub);
                 crate::output::create_folder(&p)

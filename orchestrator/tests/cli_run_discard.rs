@@ -1,12 +1,12 @@
 //! `run` when an FMU refuses a step with fmi2Discard: the campaign stops with a message
 //! naming the trial, the time, the FMU and its last successful time, exits non-zero, and
-//! keeps the trials that completed before.
+//! keeps the trials that completed before, and the failed trial's rows.
 
 mod common;
 
 use std::path::Path;
 
-use common::{foreign_fmu, number_after, orchestrator, read_csv};
+use common::{foreign_fmu, number_after, orchestrator, read_csv, tree};
 
 fn scenario(dir: &Path, discard: bool) -> std::path::PathBuf {
     let fmu = foreign_fmu(dir);
@@ -64,10 +64,64 @@ fn discard_stops_the_run_naming_time_and_last_successful_time() {
         (last - t).abs() < 1e-9,
         "the refused step must leave the FMU at its start: {last} vs {t}"
     );
+    // In a new folder a failed first trial keeps its rows up to the failure, and only them.
+    let failed = out.join("trials/trial_000.failed.csv");
     assert!(
-        !out.exists(),
-        "a campaign that failed in trial 0 wrote {}",
-        out.display()
+        err.contains(&format!(
+            "\nno trial is complete; the recording of trial 0 up to its failure is in {}",
+            failed.display()
+        )),
+        "{err}"
+    );
+    let files: Vec<_> = tree(&out).into_keys().collect();
+    assert_eq!(files, [Path::new("trials/trial_000.failed.csv")]);
+    let rows = read_csv(&failed);
+    assert_eq!(rows.names, ["osc.x"]);
+    assert_eq!(rows.time[0], 0.0);
+    let end = *rows.time.last().unwrap();
+    assert!(
+        end < t && end >= t - 0.02 - 1e-12,
+        "last row at {end} s, refused step at {t} s"
+    );
+}
+
+/// The folder a failed first trial left holds no campaign: the next run starts there without
+/// `--force` (failing again, it keeps its own rows), a run that succeeds there leaves no
+/// failed recording, and a forced run whose first trial fails never writes into the
+/// campaign it would have replaced.
+#[test]
+fn a_failed_first_trial_keeps_its_rows_only_where_no_campaign_is() {
+    let tmp = tempfile::tempdir().unwrap();
+    let failing = scenario(tmp.path(), true);
+    let out = tmp.path().join("out");
+    failing_run(&failing, &out, &[]);
+    let first = tree(&out);
+    let err = failing_run(&failing, &out, &[]);
+    assert!(err.contains("was discarded"), "{err}");
+    assert!(!err.contains("already holds"), "{err}");
+    assert_eq!(tree(&out), first, "the second failure keeps the same rows");
+
+    let passing = tmp.path().join("passing.toml");
+    std::fs::write(
+        &passing,
+        std::fs::read_to_string(&failing)
+            .unwrap()
+            .replace("x_limit = 0.1", "x_limit = 1000.0"),
+    )
+    .unwrap();
+    let o = common::run_scenario(&passing, &out, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("trials/trial_000.csv").is_file());
+    assert!(!out.join("trials/trial_000.failed.csv").exists());
+
+    let campaign = tree(&out);
+    let err = failing_run(&failing, &out, &["--force"]);
+    assert!(err.contains("was discarded"), "{err}");
+    assert!(!err.contains("up to its failure"), "{err}");
+    assert_eq!(
+        tree(&out),
+        campaign,
+        "a failed forced run keeps the old campaign"
     );
 }
 

@@ -89,6 +89,17 @@ fn kept_trials_told(
     let fmu_failed = matches!(e, CampaignError::Master(_));
     let completed = completed_trials(out, scenario, text);
     let Some(kept) = kept_after(out, completed, write_failed, fmu_failed) else {
+        // A first trial that failed in a folder holding no campaign keeps its rows.
+        let failed = failed_trial_file(out, 0, scenario.record.format);
+        if fmu_failed && completed.is_none() && failed.is_file() {
+            let message = format!(
+                "{}
+no trial is complete; the recording of trial 0 up to its failure is in {}",
+                orchestrator::describe(&e),
+                failed.display()
+            );
+            return StoppedPartWay { message, source: e }.into();
+        }
         return e.into();
     };
     // The whole chain in one message, so that the kept trials come after the reason
