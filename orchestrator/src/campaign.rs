@@ -714,10 +714,9 @@ pub(crate) fn is_temporary(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
 
-/// Files in `dir` other than the lock file, for the message refusing a new campaign.
-/// The names in `dir` that a new campaign must not take the place of: all but the lock, and
-/// but a `trials` folder holding only the recording of a first trial that failed (a run
-/// that failed there leaves only that, and the next run may start in its folder).
+/// The names in `dir` that keep a new campaign out (for the message refusing it): all but
+/// the lock file, and but a `trials` folder holding only a failed first trial's recording,
+/// all that a run which failed there left.
 fn existing_files(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = fs::read_dir(dir)
         .map(|entries| {

@@ -93,8 +93,7 @@ fn kept_trials_told(
         let failed = failed_trial_file(out, 0, scenario.record.format);
         if fmu_failed && completed.is_none() && failed.is_file() {
             let message = format!(
-                "{}
-no trial is complete; the recording of trial 0 up to its failure is in {}",
+                "{}\nno trial is complete; the recording of trial 0 up to its failure is in {}",
                 orchestrator::describe(&e),
                 failed.display()
             );
