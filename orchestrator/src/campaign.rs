@@ -924,9 +924,10 @@ pub fn run_campaign(
     let mut initial: Option<Vec<Vec<f64>>> = None;
     let progress_file = dir.join("progress.toml");
     let resuming = opts.resume && progress_file.exists();
-    // A folder that holds no campaign (nor anything else) may keep a failed first trial's
-    // recording; one holding a campaign that `--force` would replace may not.
-    let fresh = !resuming && existing_files(dir).is_empty();
+    // A folder that holds nothing (a failed first trial's recording aside) may keep this run's
+    // failed first trial; one holding a campaign that `--force` would replace may not. One
+    // that cannot be listed counts as holding something.
+    let fresh = !resuming && fs::read_dir(dir).is_ok() && existing_files(dir).is_empty();
     if resuming {
         let resume_err = |message: String| CampaignError::Resume {
             dir: dir.clone(),
@@ -1000,6 +1001,13 @@ pub fn run_campaign(
                 dir: dir.clone(),
                 what,
             });
+        }
+    }
+    if !resuming && !progress_file.exists() {
+        // An earlier run's failed first trial, in either format: whatever this run does, the
+        // file is not its own, and a message must not name it as such. No campaign holds one.
+        for format in [RecordFormat::Csv, RecordFormat::Parquet] {
+            remove_file_if_present(&failed_trial_file(dir, 0, format))?;
         }
     }
     let last = opts
@@ -1136,14 +1144,6 @@ pub fn run_campaign(
                     // trial fails never touches the campaign `--force` would have replaced.
                     let cancelled = matches!(failed.error, MasterError::Cancelled { .. });
                     let keep = (k > first || resuming || fresh) && !cancelled;
-                    // An earlier run's failed first trial (in either format) is not this one's.
-                    if keep
-                        && k == 0
-                        && let Err(e) = remove_leftovers(dir, 0)
-                    {
-                        let e = crate::describe(&e);
-                        bar.suspend(|| crate::console!("warning: {e}"));
-                    }
                     // A trial that failed before its first step has no rows to show.
                     if let Some(rows) = rows.filter(|r| keep && !r.is_empty())
                         && let Err(e) = keep_failed_recording(dir, k, rows, format)

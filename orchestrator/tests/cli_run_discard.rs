@@ -231,6 +231,45 @@ variables = ["osc.x", "osc.v"]
     text
 }
 
+/// A failed first trial's file that an earlier run left is removed before a new run starts,
+/// so that no message names it as the new run's: not when the new run fails before its first
+/// step, nor when it fails in a folder that holds more (where it keeps nothing).
+#[test]
+fn an_earlier_failed_first_trial_is_never_named_as_this_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let stale = out.join("trials/trial_000.failed.csv");
+    let leave_stale = || {
+        std::fs::create_dir_all(stale.parent().unwrap()).unwrap();
+        std::fs::write(&stale, "time,osc.x\n0,1\n").unwrap();
+    };
+    let at_start = tmp.path().join("start.toml");
+    std::fs::write(
+        &at_start,
+        std::fs::read_to_string(scenario(tmp.path(), true))
+            .unwrap()
+            .replace("drive = 50.0", "drive = 50.0\nx0 = 6.0"),
+    )
+    .unwrap();
+    leave_stale();
+    let err = failing_run(&at_start, &out, &[]);
+    assert!(err.contains("trial 0"), "{err}");
+    assert!(!err.contains("up to its failure"), "{err}");
+    assert!(!stale.exists(), "the earlier run's rows are gone");
+
+    leave_stale();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let err = failing_run(&scenario(tmp.path(), true), &out, &["--force"]);
+    assert!(err.contains("was discarded"), "{err}");
+    assert!(!err.contains("up to its failure"), "{err}");
+    let files: Vec<_> = tree(&out).into_keys().collect();
+    assert_eq!(
+        files,
+        [Path::new("notes.txt")],
+        "only the user's file is left"
+    );
+}
+
 /// A trial that fails before its first step (here trial 2 starts past the end stop, so
 /// fmi2ExitInitializationMode fails) has no rows: no failed trial's file is written, on one
 /// lane and on two. On one lane the recording buffer it would have filled is one an earlier
