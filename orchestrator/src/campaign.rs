@@ -716,22 +716,19 @@ pub(crate) fn is_temporary(name: &str) -> bool {
 
 /// The names in `dir` that keep a new campaign out (for the message refusing it): all but
 /// the lock file, and but a `trials` folder holding only a failed first trial's recording,
-/// all that a run which failed there left.
-fn existing_files(dir: &Path) -> Vec<String> {
+/// all that a run which failed there left. `None` when `dir` cannot be listed.
+fn existing_files(dir: &Path) -> Option<Vec<String>> {
     let mut names: Vec<String> = fs::read_dir(dir)
-        .map(|entries| {
-            entries
-                .filter_map(Result::ok)
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| n != LOCK_FILE)
-                .collect()
-        })
-        .unwrap_or_default();
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n != LOCK_FILE)
+        .collect();
     if names.len() == 1 && names[0] == "trials" && holds_only_failed_first_trial(dir) {
         names.clear();
     }
     names.sort();
-    names
+    Some(names)
 }
 
 /// Whether `dir/trials` holds nothing but failed first trials' recordings (or nothing).
@@ -924,10 +921,11 @@ pub fn run_campaign(
     let mut initial: Option<Vec<Vec<f64>>> = None;
     let progress_file = dir.join("progress.toml");
     let resuming = opts.resume && progress_file.exists();
+    let files = existing_files(dir);
     // A folder that holds nothing (a failed first trial's recording aside) may keep this run's
     // failed first trial; one holding a campaign that `--force` would replace may not. One
     // that cannot be listed counts as holding something.
-    let fresh = !resuming && fs::read_dir(dir).is_ok() && existing_files(dir).is_empty();
+    let fresh = !resuming && files.as_ref().is_some_and(Vec::is_empty);
     if resuming {
         let resume_err = |message: String| CampaignError::Resume {
             dir: dir.clone(),
@@ -988,7 +986,7 @@ pub fn run_campaign(
         }
         remove_leftovers(dir, first)?;
     } else if !opts.resume && !opts.force {
-        let files = existing_files(dir);
+        let files = files.unwrap_or_default();
         if !files.is_empty() {
             let what = match fs::read_to_string(&progress_file)
                 .ok()
