@@ -68,7 +68,8 @@ fn discard_stops_the_run_naming_time_and_last_successful_time() {
     let failed = out.join("trials/trial_000.failed.csv");
     assert!(
         err.contains(&format!(
-            "\nno trial is complete; the recording of trial 0 up to its failure is in {}",
+            "\nno trial is complete in {}\nthe recording of trial 0 up to its failure is in {}",
+            out.display(),
             failed.display()
         )),
         "{err}"

@@ -6,7 +6,7 @@ use anyhow::Result;
 use orchestrator::campaign::{
     CampaignError, CampaignOptions, completed_trials, failed_trial_file, run_campaign,
 };
-use orchestrator::scenario::Scenario;
+use orchestrator::scenario::{RecordFormat, Scenario};
 
 use crate::args::RunArgs;
 
@@ -88,17 +88,8 @@ fn kept_trials_told(
     let write_failed = matches!(e, CampaignError::Output(_));
     let fmu_failed = matches!(e, CampaignError::Master(_));
     let completed = completed_trials(out, scenario, text);
-    let Some(kept) = kept_after(out, completed, write_failed, fmu_failed) else {
-        // A first trial that failed in a folder holding no campaign keeps its rows.
-        let failed = failed_trial_file(out, 0, scenario.record.format);
-        if fmu_failed && completed.is_none() && failed.is_file() {
-            let message = format!(
-                "{}\nno trial is complete; the recording of trial 0 up to its failure is in {}",
-                orchestrator::describe(&e),
-                failed.display()
-            );
-            return StoppedPartWay { message, source: e }.into();
-        }
+    let format = scenario.record.format;
+    let Some(kept) = kept_after(out, completed, write_failed, fmu_failed, format) else {
         return e.into();
     };
     // The whole chain in one message, so that the kept trials come after the reason
@@ -114,9 +105,12 @@ fn kept_trials_told(
     };
     message.push_str(&format!("\n{trials} in {}", out.display()));
     // The campaign keeps the failed trial's recording only where it could write it.
+    let n = match kept {
+        Kept::Trials(n) => n,
+        Kept::NoneYet => 0,
+    };
     if fmu_failed
-        && let Kept::Trials(n) = kept
-        && let failed = failed_trial_file(out, n, scenario.record.format)
+        && let failed = failed_trial_file(out, n, format)
         && failed.is_file()
     {
         message.push_str(&format!(
@@ -161,19 +155,23 @@ fn refuse_to_overwrite_the_scenario(scenario: &Path, out: &Path) -> Result<()> {
 enum Kept {
     /// Trials 0..n, committed (n > 0).
     Trials(usize),
-    /// Nothing yet, in a folder this run began: no longer empty, so only `--resume` starts
-    /// the campaign again there.
+    /// No trial, in a folder this run began: after a failed write its `scenario.toml` (no
+    /// longer empty, so only `--resume` starts the campaign again there), after an FMU's
+    /// failure the first trial's rows up to it.
     NoneYet,
 }
 
 /// `completed`: the trials the folder's progress records for this scenario (`None` when it
-/// holds no progress, or another campaign's). After an FMU's failure only kept trials are
-/// worth naming; after a failed write, a first trial that failed is too.
+/// holds no progress, or another campaign's). After an FMU's failure the kept trials are
+/// worth naming, or else the first trial's rows the campaign kept (recorded in `format`;
+/// a run removes an earlier run's before it starts); after a failed write, a first trial
+/// that failed is too.
 fn kept_after(
     out: &Path,
     completed: Option<usize>,
     write_failed: bool,
     fmu_failed: bool,
+    format: RecordFormat,
 ) -> Option<Kept> {
     match completed {
         Some(n) if n > 0 && (write_failed || fmu_failed) => Some(Kept::Trials(n)),
@@ -183,6 +181,7 @@ fn kept_after(
         {
             Some(Kept::NoneYet)
         }
+        None if fmu_failed && failed_trial_file(out, 0, format).is_file() => Some(Kept::NoneYet),
         _ => None,
     }
 }
@@ -197,19 +196,39 @@ mod tests {
     fn a_failed_first_write_is_told_only_in_a_folder_this_run_began() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path();
-        assert_eq!(kept_after(out, None, true, false), None, "an empty folder");
+        let kept = |c, w, f| kept_after(out, c, w, f, RecordFormat::Csv);
+        assert_eq!(kept(None, true, false), None, "an empty folder");
         std::fs::write(out.join("scenario.toml"), "").unwrap();
-        assert_eq!(kept_after(out, None, true, false), Some(Kept::NoneYet));
-        assert_eq!(kept_after(out, None, false, true), None, "an FMU's failure");
-        assert_eq!(kept_after(out, Some(0), true, false), None);
+        assert_eq!(kept(None, true, false), Some(Kept::NoneYet));
+        assert_eq!(kept(None, false, true), None, "an FMU's failure");
+        assert_eq!(kept(Some(0), true, false), None);
         std::fs::write(out.join("progress.toml"), "").unwrap();
         assert_eq!(
-            kept_after(out, None, true, false),
+            kept(None, true, false),
             None,
             "another campaign's progress (a --force run's first trial)"
         );
-        assert_eq!(kept_after(out, Some(3), true, false), Some(Kept::Trials(3)));
-        assert_eq!(kept_after(out, Some(3), false, true), Some(Kept::Trials(3)));
-        assert_eq!(kept_after(out, Some(3), false, false), None);
+        assert_eq!(kept(Some(3), true, false), Some(Kept::Trials(3)));
+        assert_eq!(kept(Some(3), false, true), Some(Kept::Trials(3)));
+        assert_eq!(kept(Some(3), false, false), None);
+    }
+
+    /// A first trial's rows are told after an FMU's failure, in the scenario's format only.
+    #[test]
+    fn a_failed_first_trials_rows_are_told_after_an_fmus_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path();
+        let file = failed_trial_file(out, 0, RecordFormat::Csv);
+        std::fs::create_dir(file.parent().unwrap()).unwrap();
+        std::fs::write(&file, "").unwrap();
+        assert_eq!(
+            kept_after(out, None, false, true, RecordFormat::Csv),
+            Some(Kept::NoneYet)
+        );
+        assert_eq!(
+            kept_after(out, None, false, true, RecordFormat::Parquet),
+            None
+        );
+        assert_eq!(kept_after(out, None, false, false, RecordFormat::Csv), None);
     }
 }
