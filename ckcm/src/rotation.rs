@@ -36,8 +36,9 @@ pub fn quaternion_from_euler_zyx(alpha: f64, beta: f64, gamma: f64) -> UnitQuate
 /// beta comes from atan2(sin β, cos β) beyond ±π/6, exact to rounding up to ±π/2 (where
 /// asin loses about half the digits), and from asin within. Where cos β <
 /// [`GIMBAL_LOCK_COS`] alpha and gamma are no longer told apart by the matrix (gimbal
-/// lock): gamma is set to zero and alpha takes the whole rotation about z. The threshold balances the two errors, the rounding of the
-/// regular formulas (about 1e-16 / cos β) and gamma's share dropped here (about cos β).
+/// lock): gamma is set to zero and alpha takes the whole rotation about z. The threshold
+/// balances the two errors, the rounding of the regular formulas (about 1e-16 / cos β) and
+/// gamma's share dropped here (about cos β).
 #[inline]
 pub fn euler_zyx_from_rotation(r: &Matrix3<f64>) -> (f64, f64, f64) {
     let cos_beta = (r[(0, 0)] * r[(0, 0)] + r[(1, 0)] * r[(1, 0)]).sqrt();
