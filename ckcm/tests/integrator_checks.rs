@@ -1,10 +1,12 @@
 //! The fixed-step integrator is the classic fourth-order Runge–Kutta method: halving the step
 //! divides the global error by 2⁴ = 16. A mistaken stage still converges (at a lower order),
 //! so agreement with another integrator at one step size does not show it; the error ratio
-//! does. Also: a state with one non-finite component is not finite.
+//! does. The adaptive integrator's Dormand–Prince pair is checked the same way: its
+//! fifth-order solution at fixed steps, and its embedded error estimate through the steps a
+//! tolerance takes. Also: a state with one non-finite component is not finite.
 
 use ckcm::nalgebra::{Quaternion, UnitQuaternion, Vector6};
-use ckcm::{Friction, Mechanism, Params, Pose, Rk4, State};
+use ckcm::{DormandPrince, Friction, Mechanism, Params, Pose, Rk4, State};
 
 fn frictionless() -> Mechanism {
     Mechanism::new(Params {
@@ -14,21 +16,32 @@ fn frictionless() -> Mechanism {
     .unwrap()
 }
 
-/// State after `t` seconds from a tumbling start under constant forces, with `n` RK4 steps,
-/// as [p, q coordinates, twist].
-fn run(m: &Mechanism, t: f64, n: u32) -> [f64; 13] {
+/// A tumbling start at the home pose, and constant forces off the static ones.
+fn tumbling_start(m: &Mechanism) -> (State, Vector6<f64>) {
     let tau =
         m.static_forces(&m.home()).unwrap() + Vector6::new(30.0, -20.0, 10.0, -25.0, 15.0, 5.0);
-    let mut s = State {
+    let s = State {
         pose: m.home(),
         twist: Vector6::new(0.05, -0.04, 0.03, 1.2, -0.9, 1.5),
     };
+    (s, tau)
+}
+
+/// State after `t` seconds from the tumbling start under its constant forces, with `n` RK4
+/// steps, as [p, q coordinates, twist].
+fn run(m: &Mechanism, t: f64, n: u32) -> [f64; 13] {
+    let (mut s, tau) = tumbling_start(m);
     Rk4 {
         substeps: n,
         ..Rk4::default()
     }
     .advance(m, &mut s, &tau, t)
     .unwrap();
+    flat(&s)
+}
+
+/// [p, q coordinates, twist].
+fn flat(s: &State) -> [f64; 13] {
     let q = s.pose.q_world.as_ref().coords;
     let p = s.pose.p_world;
     let w = s.twist;
@@ -94,7 +107,7 @@ fn state_with_one_non_finite_component_is_not_finite() {
 /// stops at the first refused one with its offset; checks that pass change nothing.
 #[test]
 fn states_inside_an_interval_are_checked_in_order() {
-    use ckcm::{DormandPrince, IntegrationError, Integrator, WorkspaceError};
+    use ckcm::{IntegrationError, Integrator, WorkspaceError};
     let m = frictionless();
     let tau = m.static_forces(&m.home()).unwrap() + Vector6::from_element(40.0);
     let start = State::at_rest(m.home());
@@ -158,4 +171,87 @@ fn states_inside_an_interval_are_checked_in_order() {
             other => panic!("{other:?}"),
         }
     }
+}
+
+/// The fixed-step Dormand–Prince solution of `run`'s problem with `n` steps: a tolerance no
+/// error estimate reaches accepts every step, and a step proposal of at least the interval
+/// makes each `advance` one step.
+fn run_dormand_prince(m: &Mechanism, t: f64, n: u32) -> [f64; 13] {
+    let (mut s, tau) = tumbling_start(m);
+    let h = t / f64::from(n);
+    let mut dp = DormandPrince {
+        rtol: 1e6,
+        atol: 1e6,
+        h_next: h,
+        ..DormandPrince::default()
+    };
+    for _ in 0..n {
+        dp.advance(m, &mut s, &tau, h).unwrap();
+        assert_eq!(dp.last_steps, 1, "the step of {h} s was split");
+    }
+    flat(&s)
+}
+
+/// Dormand–Prince's fifth-order weights: at fixed steps the global error falls by at least
+/// 2⁵ = 32 per halving of the step. A wrong tableau entry breaks an order condition (a
+/// fourth-order method gives 16, most mistakes far less), and the step control alone would
+/// hide it by shrinking the steps. On this problem the errors at these steps still carry
+/// sixth-order terms: the ratios are about 60–80, approaching 32 only near rounding.
+#[test]
+fn dormand_prince_is_of_fifth_order_at_fixed_steps() {
+    let m = frictionless();
+    let t = 0.2;
+    let reference = run_dormand_prince(&m, t, 2048);
+    let e: Vec<f64> = [4, 8, 16, 32]
+        .iter()
+        .map(|&n| distance(&run_dormand_prince(&m, t, n), &reference))
+        .collect();
+    assert!(e[0] < 1e-4, "error {} with 4 steps of 50 ms", e[0]);
+    assert!(e[3] > 1e-12, "errors too small to measure the order: {e:?}");
+    for k in 0..3 {
+        let ratio = e[k] / e[k + 1];
+        assert!(
+            ratio > 28.0,
+            "error ratio {ratio} between {} and {} steps (errors {e:?})",
+            4 << k,
+            8 << k
+        );
+    }
+}
+
+/// The embedded error estimate is of fifth order in the step (a fourth-order pair), so a
+/// tolerance 10⁵ times tighter takes about 10⁵ᐟ⁵ = 10 times the steps (8.2 here); and the
+/// solution it accepts is as accurate as asked. A wrong error weight makes the estimate of lower
+/// order (far more steps) or too small (a solution off by more than the tolerance).
+#[test]
+fn dormand_prince_error_estimate_is_fourth_order_and_honest() {
+    let m = frictionless();
+    let t = 0.2;
+    let (start, tau) = tumbling_start(&m);
+    let reference = run_dormand_prince(&m, t, 256);
+    let solve = |tol: f64| {
+        let mut s = start;
+        let mut dp = DormandPrince {
+            rtol: tol,
+            atol: tol,
+            h_next: t,
+            ..DormandPrince::default()
+        };
+        dp.advance(&m, &mut s, &tau, t).unwrap();
+        (dp.last_steps, distance(&flat(&s), &reference))
+    };
+    let (coarse_steps, coarse_error) = solve(1e-7);
+    let (fine_steps, fine_error) = solve(1e-12);
+    let ratio = fine_steps as f64 / coarse_steps as f64;
+    assert!(
+        (6.0..16.0).contains(&ratio),
+        "{coarse_steps} steps at 1e-7, {fine_steps} at 1e-12: ratio {ratio}"
+    );
+    // The tolerance bounds each step's error; over the interval they add up to a few times
+    // it (1.4 and 0.15 times here).
+    assert!(
+        coarse_error < 1e-6,
+        "error {coarse_error} at tolerance 1e-7"
+    );
+    assert!(fine_error < 1e-11, "error {fine_error} at tolerance 1e-12");
 }
