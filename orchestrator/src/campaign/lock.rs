@@ -210,4 +210,21 @@ mod tests {
         );
         drop(lock);
     }
+
+    /// The message names the machine as the kernel does, so that a user on a cluster can
+    /// find the run that holds the folder.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn the_holder_is_named_by_this_machines_host_name() {
+        let kernel = fs::read_to_string("/proc/sys/kernel/hostname").unwrap();
+        let kernel = kernel.trim();
+        assert!(!kernel.is_empty());
+        let tmp = tempfile::tempdir().unwrap();
+        let _first = DirLock::acquire(tmp.path()).unwrap();
+        let err = DirLock::acquire(tmp.path()).unwrap_err().to_string();
+        assert!(
+            err.contains(&format!("on host {kernel:?}, since ")),
+            "{err}"
+        );
+    }
 }
