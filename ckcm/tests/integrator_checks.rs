@@ -255,3 +255,33 @@ fn dormand_prince_error_estimate_is_fourth_order_and_honest() {
     );
     assert!(fine_error < 1e-11, "error {fine_error} at tolerance 1e-12");
 }
+
+/// RK4's substeps: at least `substeps`, and ⌈h / max_step⌉ where that is more; an interval
+/// longer than `max_step` by a master's rounding alone is not split; a million substeps is
+/// the most an interval may take.
+#[test]
+fn rk4_splits_an_interval_by_its_longest_substep() {
+    let rk4 = |substeps, max_step| Rk4 { substeps, max_step };
+    let n = |r: Rk4, h: f64| r.substeps_for(h).unwrap();
+    assert_eq!(n(Rk4::default(), 0.001), 1);
+    assert_eq!(n(Rk4::default(), 1e3), 1);
+    assert_eq!(n(rk4(1, 0.002), 0.001), 1);
+    assert_eq!(n(rk4(1, 0.002), 0.002), 1);
+    assert_eq!(n(rk4(1, 0.002), 0.01), 5);
+    assert_eq!(n(rk4(1, 0.002), 0.0101), 6);
+    // Ten steps of 1 ms added up by a master: 0.010000000000000002.
+    let summed: f64 = (0..10).map(|_| 0.001).sum();
+    assert!(summed > 0.01);
+    assert_eq!(n(rk4(1, 0.001), summed), 10);
+    assert_eq!(n(rk4(1, 0.001), 0.01 * (1.0 + 1e-7)), 11);
+    assert_eq!(n(rk4(8, 0.002), 0.01), 8);
+    assert_eq!(n(rk4(3, 0.002), 0.01), 5);
+    assert_eq!(n(rk4(0, f64::INFINITY), 0.001), 1);
+    assert_eq!(n(rk4(2, 0.002), f64::NAN), 2);
+    // Exactly a million substeps is allowed, one more is refused.
+    assert_eq!(n(rk4(1, 1e-3), 1e3), 1_000_000);
+    assert!(matches!(
+        rk4(1, 1e-3).substeps_for(1e3 * (1.0 + 1e-6)),
+        Err(ckcm::IntegrationError::TooManySubsteps { .. })
+    ));
+}
