@@ -285,3 +285,36 @@ fn rk4_splits_an_interval_by_its_longest_substep() {
         Err(ckcm::IntegrationError::TooManySubsteps { .. })
     ));
 }
+
+/// Dormand–Prince starts from the step it proposed last (`h_next`), takes a proposal short
+/// of the interval by rounding alone as the interval, and allows `max_steps` steps but not
+/// one more. With a tolerance no estimate reaches, every step is accepted and the next one
+/// grows fivefold, so the counts are exact.
+#[test]
+fn dormand_prince_starts_from_its_proposal_and_counts_its_steps() {
+    let m = frictionless();
+    let (start, tau) = tumbling_start(&m);
+    let h = 0.01;
+    let advance = |h_next: f64, max_steps: usize| {
+        let mut dp = DormandPrince {
+            rtol: 1e6,
+            atol: 1e6,
+            h_next,
+            max_steps,
+            ..DormandPrince::default()
+        };
+        let mut s = start;
+        dp.advance(&m, &mut s, &tau, h).map(|()| dp.last_steps)
+    };
+    // No proposal yet: the whole interval at once.
+    assert_eq!(advance(0.0, 10), Ok(1));
+    // A quarter of the interval, then five quarters, cut to the three left.
+    assert_eq!(advance(h / 4.0, 10), Ok(2));
+    assert_eq!(advance(h / 4.0, 2), Ok(2));
+    assert_eq!(
+        advance(h / 4.0, 1),
+        Err(ckcm::IntegrationError::TooManySteps { max_steps: 1 })
+    );
+    // Short of the interval by 1e-13 of it: one step, not a second of 1e-15 s.
+    assert_eq!(advance(h * (1.0 - 1e-13), 10), Ok(1));
+}
