@@ -164,8 +164,19 @@ fn states_inside_an_interval_are_checked_in_order() {
             } => {
                 assert!(offset > 0.0 && offset < 0.08, "{offset}");
                 assert_eq!(z, seen[2]);
-                if let Integrator::Rk4(_) = integrator {
-                    assert_eq!(offset, 0.08 / 8.0 * 3.0);
+                match integrator {
+                    Integrator::Rk4(_) => assert_eq!(offset, 0.08 / 8.0 * 3.0),
+                    // The same steps over `offset` alone end on the refused state.
+                    Integrator::DormandPrince(_) => {
+                        let mut s = start;
+                        DormandPrince {
+                            h_next: 0.01,
+                            ..DormandPrince::default()
+                        }
+                        .advance(&m, &mut s, &tau, offset)
+                        .unwrap();
+                        assert!((s.pose.p_world.z - z).abs() < 1e-12, "{offset}");
+                    }
                 }
             }
             other => panic!("{other:?}"),
@@ -242,6 +253,16 @@ fn dormand_prince_error_estimate_is_fourth_order_and_honest() {
     };
     let (coarse_steps, coarse_error) = solve(1e-7);
     let (fine_steps, fine_error) = solve(1e-12);
+    // The counts themselves (10 and 82 here): an error norm off by a constant factor moves
+    // them by its fifth root.
+    assert!(
+        (8..=12).contains(&coarse_steps),
+        "{coarse_steps} steps at 1e-7"
+    );
+    assert!(
+        (66..=100).contains(&fine_steps),
+        "{fine_steps} steps at 1e-12"
+    );
     let ratio = fine_steps as f64 / coarse_steps as f64;
     assert!(
         (6.0..16.0).contains(&ratio),
@@ -304,17 +325,73 @@ fn dormand_prince_starts_from_its_proposal_and_counts_its_steps() {
             ..DormandPrince::default()
         };
         let mut s = start;
-        dp.advance(&m, &mut s, &tau, h).map(|()| dp.last_steps)
+        dp.advance(&m, &mut s, &tau, h)
+            .map(|()| (dp.last_steps, dp.h_next))
     };
+    let steps = |h_next, max_steps| advance(h_next, max_steps).map(|(n, _)| n);
+    // The next proposal: five times the last step that was not cut short, and never the
+    // cut-short last step's.
+    let proposal = |h_next: f64| advance(h_next, 10).unwrap().1;
+    assert!((proposal(0.0) / (5.0 * h) - 1.0).abs() < 1e-12);
+    assert!((proposal(h / 4.0) / (1.25 * h) - 1.0).abs() < 1e-12);
     // No proposal yet: the whole interval at once.
-    assert_eq!(advance(0.0, 10), Ok(1));
+    assert_eq!(steps(0.0, 10), Ok(1));
     // A quarter of the interval, then five quarters, cut to the three left.
-    assert_eq!(advance(h / 4.0, 10), Ok(2));
-    assert_eq!(advance(h / 4.0, 2), Ok(2));
+    assert_eq!(steps(h / 4.0, 10), Ok(2));
+    assert_eq!(steps(h / 4.0, 2), Ok(2));
     assert_eq!(
-        advance(h / 4.0, 1),
+        steps(h / 4.0, 1),
         Err(ckcm::IntegrationError::TooManySteps { max_steps: 1 })
     );
     // Short of the interval by 1e-13 of it: one step, not a second of 1e-15 s.
-    assert_eq!(advance(h * (1.0 - 1e-13), 10), Ok(1));
+    assert_eq!(steps(h * (1.0 - 1e-13), 10), Ok(1));
+}
+
+/// A step the error control shrinks below `h_min` ends the interval with an error that
+/// names where it stopped, rather than crawling on.
+#[test]
+fn dormand_prince_refuses_a_step_below_its_smallest() {
+    let m = frictionless();
+    let (mut s, tau) = tumbling_start(&m);
+    let before = s;
+    let mut dp = DormandPrince {
+        rtol: 1e-12,
+        atol: 1e-12,
+        h_min: 0.01,
+        h_next: 0.02,
+        ..DormandPrince::default()
+    };
+    assert_eq!(
+        dp.advance(&m, &mut s, &tau, 0.02),
+        Err(ckcm::IntegrationError::StepTooSmall {
+            h_min: 0.01,
+            offset: 0.0
+        })
+    );
+    assert_eq!(s, before);
+}
+
+/// A relative tolerance holds each component to its own size. Most of this state's
+/// components are well under 1 (the position's x and y, the quaternion's vector part), so
+/// a purely relative tolerance of 1e-9 asks more of them than an absolute one of 1e-9 and
+/// takes more steps (36 against 26 here; a tolerance that grew as a component shrank would
+/// take about as many).
+#[test]
+fn dormand_prince_relative_tolerance_scales_with_each_component() {
+    let m = frictionless();
+    let t = 0.2;
+    let (start, tau) = tumbling_start(&m);
+    let steps = |rtol, atol| {
+        let mut s = start;
+        let mut dp = DormandPrince {
+            rtol,
+            atol,
+            h_next: t,
+            ..DormandPrince::default()
+        };
+        dp.advance(&m, &mut s, &tau, t).unwrap();
+        dp.last_steps as f64
+    };
+    let ratio = steps(1e-9, 0.0) / steps(0.0, 1e-9);
+    assert!((1.25..2.0).contains(&ratio), "ratio {ratio}");
 }
