@@ -9,10 +9,9 @@
 //! Tolerance: a figure printed with d decimals says only that the true value lies within half
 //! a unit of its last digit; the two models agree to about 2e-5 relative on top of that.
 
+use ckcm::closed_loop::run_trial;
 use ckcm::nalgebra::Vector6;
-use ckcm::{
-    ControlInput, ControlSettings, Hlcs, LearningLaw, Mechanism, Params, Rk4, State, Trajectory,
-};
+use ckcm::{ControlSettings, Hlcs, Integrator, LearningLaw, Mechanism, Params, Rk4, Trajectory};
 
 const H: f64 = 1e-3;
 
@@ -26,9 +25,11 @@ fn assert_figure(what: &str, measured_mm: f64, printed: &str) {
     );
 }
 
-/// Runs `trials` trials of the sampled loop (Gauss–Seidel: the controller samples the plant's
-/// outputs at t_n, the plant integrates over [t_n, t_n + h] under the force just computed)
-/// and returns each trial's max |e| over all legs and samples, mm.
+/// Runs `trials` trials of the crate's closed loop (`closed_loop::run_trial`, Gauss–Seidel:
+/// the controller samples the plant's outputs at t_n, the plant integrates over
+/// [t_n, t_n + h] under the force just computed), each from rest at the trajectory's start
+/// with the memory the one before it wrote, and returns each trial's max |e| over all legs
+/// and samples, mm.
 fn max_errors_mm(trajectory: Trajectory, learning: bool, trials: usize) -> Vec<f64> {
     let plant = Mechanism::new(Params::default()).unwrap();
     let model = Mechanism::new(Params::nominal()).unwrap();
@@ -38,28 +39,23 @@ fn max_errors_mm(trajectory: Trajectory, learning: bool, trials: usize) -> Vec<f
     };
     let steps = (trajectory.duration / H).round() as usize;
     let mut memory = vec![Vector6::zeros(); steps];
+    let mut law = Hlcs::new(model, settings);
+    let mut integrator = Integrator::Rk4(Rk4::default());
     let mut out = Vec::new();
     for _ in 0..trials {
-        let mut law = Hlcs::new(model, settings);
-        let mut state = State::at_rest(plant.home());
         let mut next = vec![Vector6::zeros(); steps];
         let mut max: f64 = 0.0;
-        for (n, u) in memory.iter().enumerate() {
-            let legs = plant.inverse_kinematics(&state.pose);
-            let input = ControlInput {
-                length: legs.length,
-                velocity: legs.leg_rates(&state.twist),
-                memory: *u,
-            };
-            let o = law
-                .step(&trajectory.sample(n as f64 * H), &input, H)
-                .unwrap();
-            max = max.max(o.error.amax());
-            next[n] = o.memory_next;
-            Rk4::default()
-                .advance(&plant, &mut state, &o.force, H)
-                .unwrap();
-        }
+        run_trial(
+            &plant,
+            &mut integrator,
+            &mut law,
+            &trajectory,
+            H,
+            &memory,
+            &mut next,
+            |_, _, _, o| max = max.max(o.error.amax()),
+        )
+        .unwrap();
         memory = next;
         out.push(max * 1e3);
     }
