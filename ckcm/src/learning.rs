@@ -495,6 +495,31 @@ mod tests {
         }
     }
 
+    /// Both branches of the scaled division (|re| ≥ |im| of the divisor and the other way
+    /// round) against the textbook quotient ((ac + bd) + (bc − ad)i) / (c² + d²), which is
+    /// exact to a few ulps at these magnitudes.
+    #[test]
+    fn complex_division_matches_the_textbook_quotient() {
+        let cases = [
+            (Cx::new(1.5, -2.0), Cx::new(3.0, 0.5)),
+            (Cx::new(1.5, -2.0), Cx::new(0.5, 3.0)),
+            (Cx::new(-0.25, 4.0), Cx::new(-0.7, -2.9)),
+            (Cx::new(-0.25, 4.0), Cx::new(2.9, -0.7)),
+            (Cx::new(1.0, 0.0), Cx::new(0.0, -2.0)),
+        ];
+        for (x, y) in cases {
+            let q = x.div(y);
+            let n = y.re * y.re + y.im * y.im;
+            let re = (x.re * y.re + x.im * y.im) / n;
+            let im = (x.im * y.re - x.re * y.im) / n;
+            assert!(
+                (q.re - re).abs() <= 1e-15 * re.abs().max(1.0)
+                    && (q.im - im).abs() <= 1e-15 * im.abs().max(1.0),
+                "{x:?} / {y:?} = {q:?}, textbook ({re}, {im})"
+            );
+        }
+    }
+
     #[test]
     fn bad_settings_are_refused() {
         assert_eq!(butter_lowpass(0, 8.0, 1000.0), Err(UpdateError::Order(0)));
@@ -506,6 +531,29 @@ mod tests {
             butter_lowpass(4, f64::NAN, 1000.0),
             Err(UpdateError::Cutoff { .. })
         ));
+        assert_eq!(
+            butter_lowpass(2, 600.0, 1000.0),
+            Err(UpdateError::Cutoff {
+                cutoff: 600.0,
+                nyquist: 500.0
+            })
+        );
+        assert_eq!(
+            butter_lowpass(2, 0.0, 1000.0),
+            Err(UpdateError::Cutoff {
+                cutoff: 0.0,
+                nyquist: 500.0
+            })
+        );
+        for rate in [0.0, -1000.0, f64::INFINITY, f64::NAN] {
+            assert!(
+                matches!(
+                    butter_lowpass(2, 10.0, rate),
+                    Err(UpdateError::SampleRate(_))
+                ),
+                "sample rate {rate}"
+            );
+        }
         let s = UpdateSettings {
             lead: 10,
             ..Default::default()
