@@ -295,17 +295,7 @@ impl ZeroPhase {
         })
     }
 
-    /// Signal length this filter was prepared for.
-    pub fn samples(&self) -> usize {
-        self.samples
-    }
-
-    /// The filter applied forwards and backwards.
-    pub fn transfer_function(&self) -> &TransferFunction {
-        &self.tf
-    }
-
-    /// Filters `x` in place (`x.len()` must be [`ZeroPhase::samples`]).
+    /// Filters `x` in place (`x.len()` must be the length the filter was prepared for).
     pub fn apply(&mut self, x: &mut [f64]) {
         assert_eq!(x.len(), self.samples, "signal length");
         let n = self.samples;
