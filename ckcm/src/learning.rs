@@ -613,5 +613,30 @@ mod tests {
             .unwrap()
             .apply(&read, &mut next);
         assert_eq!(next, vec![1.5, 2.0, 2.5, 3.0, 4.5, 5.0]);
+        // Each alone is not the paper's update either.
+        for (forgetting, gain, expected) in [
+            (0.5, 1.0, [1.0, 1.5, 2.0, 2.5, 3.5, 4.0]),
+            (1.0, 2.0, [2.0, 3.0, 4.0, 5.0, 7.0, 8.0]),
+        ] {
+            let s = UpdateSettings {
+                forgetting,
+                gain,
+                ..Default::default()
+            };
+            let mut update = MemoryUpdate::new(s, 3, 2, 1e-3).unwrap();
+            assert_eq!(update.settings(), &s);
+            let mut next = next0.clone();
+            update.apply(&read, &mut next);
+            assert_eq!(next, expected, "forgetting {forgetting}, gain {gain}");
+        }
+        // The paper's update hands m_k on bit for bit, where u_k + (m_k − u_k) would not
+        // (1.1 + (0.1 − 1.1) = 0.10000000000000009).
+        let read = vec![1.1, 2.3, 3.3];
+        let next0 = vec![0.1, 0.2, 0.35];
+        let mut next = next0.clone();
+        MemoryUpdate::new(UpdateSettings::default(), 3, 1, 1e-3)
+            .unwrap()
+            .apply(&read, &mut next);
+        assert_eq!(next, next0);
     }
 }
