@@ -126,6 +126,34 @@ mod tests {
         assert!(e.ends_with("outside its stroke [0.4, 0.95] m"), "{e}");
     }
 
+    /// A platform 5 cm over the base, pitched by 0.6 rad: its joints sit at different heights
+    /// (two below the plane, two above the centre), and the
+    /// first one (in joint order) at or below the plane is named, 1-based, with its own
+    /// height, not the platform centre's.
+    #[test]
+    fn the_first_joint_through_the_base_plane_is_named_with_its_height() {
+        let mech = Mechanism::new(Params::default()).unwrap();
+        let ws = Workspace {
+            length_min: 0.0,
+            length_max: 10.0,
+        };
+        let pose = Pose::from_xyz_euler(&[0.0, 0.0, 0.05, 0.0, 0.6, 0.0]);
+        let legs = mech.inverse_kinematics(&pose);
+        let heights: Vec<f64> = (0..LEGS)
+            .map(|i| pose.p_world.z + legs.r_world[i].z)
+            .collect();
+        let first = heights.iter().position(|&z| z <= 0.0).unwrap();
+        assert!(heights.iter().any(|&z| z > 0.0), "{heights:?}");
+        assert!(legs.r_world[first].z.abs() > 0.05, "{heights:?}");
+        assert_eq!(
+            ws.check(&pose, true, &legs),
+            Err(WorkspaceError::BasePlane {
+                joint: first + 1,
+                z: heights[first]
+            })
+        );
+    }
+
     #[test]
     fn empty_strokes_are_refused() {
         for (min, max) in [(0.5, 0.5), (0.6, 0.5), (-0.1, 0.5), (0.4, f64::INFINITY)] {
