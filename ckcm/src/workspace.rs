@@ -127,9 +127,8 @@ mod tests {
     }
 
     /// A platform 5 cm over the base, pitched by 0.6 rad: its joints sit at different heights
-    /// (two below the plane, two above the centre), and the
-    /// first one (in joint order) at or below the plane is named, 1-based, with its own
-    /// height, not the platform centre's.
+    /// (four below the plane, two above it), and the first one (in joint order) at or below
+    /// the plane is named, 1-based, with its own height, not the platform centre's.
     #[test]
     fn the_first_joint_through_the_base_plane_is_named_with_its_height() {
         let mech = Mechanism::new(Params::default()).unwrap();
