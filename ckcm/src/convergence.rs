@@ -608,6 +608,33 @@ mod tests {
         assert!((c3 - h / 27.0).abs() < 1e-18);
     }
 
+    /// Both sides of the switch from the closed form to the series (x = b h / m = 1e-4)
+    /// against the series summed to eight terms, which is exact there: the code's three
+    /// terms within their truncation (x³ / 24 < 5e-14), the closed form within the
+    /// cancellation it suffers (about 2ε / x).
+    #[test]
+    fn zoh_series_and_closed_form_agree_where_they_meet() {
+        let h: f64 = 1e-3;
+        for x in [0.5e-4, 0.99e-4, 1.01e-4, 2e-4] {
+            let mass = 100.0 * h / x;
+            let (p, c1, c2, c3) = mode(mass).zoh();
+            let x = 100.0 / mass * h;
+            // s1 = Σ (−x)^k / (k + 1)!, s2 = Σ (−x)^k / (k + 2)!.
+            let (mut s1, mut s2, mut term) = (0.0, 0.0, 1.0);
+            for k in 0..8 {
+                s1 += term / (k + 1) as f64;
+                s2 += term / ((k + 1) * (k + 2)) as f64;
+                term *= -x / (k + 1) as f64;
+            }
+            let tol = if x < 1e-4 { 1e-13 } else { 1e-10 };
+            let close = |got: f64, want: f64| (got / want - 1.0).abs() < tol;
+            assert!(close(p, (-x).exp()), "x = {x}: p = {p}");
+            assert!(close(c1, h * s1), "x = {x}: c1 = {c1}, series {}", h * s1);
+            assert!(close(c2, h * h / mass * s2), "x = {x}: c2 = {c2}");
+            assert!(close(c3, h / mass * s1), "x = {x}: c3 = {c3}");
+        }
+    }
+
     #[test]
     fn low_frequency_factor_is_one_minus_psi_over_ki() {
         // The integral feedback drives the position error to zero for a constant u; what
