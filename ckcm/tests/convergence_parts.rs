@@ -1,9 +1,14 @@
 //! The convergence analysis' building blocks checked against what they stand for:
 //! `q_gain_sq` against the frequency response of the filter `learning.rs` designs and
-//! applies, and `validate` against each setting it must refuse.
+//! applies, `validate` against each setting it must refuse, and the grids, spreads and
+//! bands the report is built from against values worked out by hand.
 
-use ckcm::convergence::{ConvergenceError, q_gain_sq, validate};
+use ckcm::convergence::{
+    ConvergenceError, ModeSpread, bands_above_one, frequency_grid, mass_grid, mass_history,
+    mode_spread, q_gain_sq, validate,
+};
 use ckcm::learning::{LowPass, MAX_ORDER, UpdateSettings, butter_lowpass};
+use ckcm::{Mechanism, Params, Trajectory};
 
 /// |b(z) / a(z)|² at z = e^{jωh}, summed term by term.
 fn response_sq(b: &[f64], a: &[f64], f: f64, h: f64) -> f64 {
@@ -90,5 +95,82 @@ fn validate_names_the_setting_it_refuses() {
     assert_eq!(refused(&filtered(MAX_ORDER + 1, 20.0), h), "order");
     for cutoff in [0.0, -5.0, 500.0, 600.0, f64::NAN] {
         assert_eq!(refused(&filtered(2, cutoff), h), "cutoff");
+    }
+}
+
+/// Even steps over a mode's mass range, ends included; logarithmic steps from `f_min` to just
+/// below Nyquist.
+#[test]
+fn grids_span_their_ranges_in_even_steps() {
+    let spread = ModeSpread {
+        min: 2.0,
+        max: 8.0,
+        time_of_max: 0.0,
+        pose_of_max: [0.0; 6],
+    };
+    assert_eq!(mass_grid(&spread, 4), vec![2.0, 4.0, 6.0, 8.0]);
+    assert_eq!(mass_grid(&spread, 1), vec![2.0, 8.0]);
+    let f = frequency_grid(1e-3, 1.0, 5);
+    let top = 500.0 * (1.0 - 1e-6);
+    assert_eq!(f.len(), 5);
+    assert_eq!(f[0], 1.0);
+    assert!((f[4] / top - 1.0).abs() < 1e-12, "{f:?}");
+    for w in f.windows(2) {
+        let ratio = w[1] / w[0];
+        assert!((ratio / top.powf(0.25) - 1.0).abs() < 1e-12, "{f:?}");
+    }
+}
+
+/// Each mode's lightest and heaviest mass over a history, with the time and pose of the
+/// first sample where the heaviest occurs.
+#[test]
+fn a_modes_spread_keeps_its_first_heaviest_sample() {
+    let line = Trajectory::line(0.5);
+    let history = [
+        (0.0, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+        (0.5, [1.5, 2.0, 2.5, 4.0, 5.0, 7.0]),
+        (1.0, [0.5, 2.0, 3.0, 4.0, 6.0, 7.0]),
+    ];
+    let s = mode_spread(&history, &line);
+    assert_eq!(s[0].min, 0.5);
+    assert_eq!(s[0].max, 1.5);
+    assert_eq!(s[0].time_of_max, 0.5);
+    assert_eq!(s[0].pose_of_max, line.sample(0.5).pose.to_xyz_euler());
+    // Equal at every sample: the first.
+    assert_eq!((s[1].min, s[1].max, s[1].time_of_max), (2.0, 2.0, 0.0));
+    assert_eq!(s[5].time_of_max, 0.5);
+    assert_eq!(s[4].time_of_max, 1.0);
+}
+
+/// A factor above 1 on (10, 20) Hz only: one band, its edges refined to 1e-6 between the
+/// grid's points; a band reaching the grid's end ends there.
+#[test]
+fn bands_above_one_are_found_and_their_edges_refined() {
+    let grid: Vec<f64> = (1..=100).map(|i| i as f64 * 1.5).collect();
+    let step = |f: f64| if f > 10.0 && f < 20.0 { 2.0 } else { 0.5 };
+    let bands = bands_above_one(&grid, step);
+    assert_eq!(bands.len(), 1, "{bands:?}");
+    let (lo, hi) = bands[0];
+    assert!((lo / 10.0 - 1.0).abs() < 2e-6 && lo > 10.0, "{bands:?}");
+    assert!((hi / 20.0 - 1.0).abs() < 2e-6 && hi < 20.0, "{bands:?}");
+    let tail = bands_above_one(&grid, |f| if f > 100.0 { 2.0 } else { 0.5 });
+    assert_eq!(tail.len(), 1);
+    assert!((tail[0].0 / 100.0 - 1.0).abs() < 2e-6);
+    assert_eq!(tail[0].1, 150.0);
+    assert!(bands_above_one(&grid, |_| 0.5).is_empty());
+    assert_eq!(bands_above_one(&grid, |_| 2.0), vec![(1.5, 150.0)]);
+}
+
+/// A stride that is not positive is refused as such, before its pose count is.
+#[test]
+fn a_stride_that_is_not_positive_is_refused_as_such() {
+    let m = Mechanism::new(Params::default()).unwrap();
+    for stride in [0.0, -0.005] {
+        match mass_history(&m, &Trajectory::line(0.5), stride) {
+            Err(ConvergenceError::Invalid { name, reason, .. }) => {
+                assert_eq!((name, reason), ("stride", "must be positive"));
+            }
+            other => panic!("stride {stride}: {other:?}"),
+        }
     }
 }
