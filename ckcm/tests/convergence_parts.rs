@@ -174,3 +174,66 @@ fn a_stride_that_is_not_positive_is_refused_as_such() {
         }
     }
 }
+
+/// The frequency response L P of one mode's sampled loop against the loop itself, stepped in
+/// time: a cosine learning input u, after the transients have died, gives a learning output
+/// Δ = −L P u (Δ = Φ e + Ψ I + Γ ė with e = −x, the running sum I including the sample,
+/// the force held over the step). Gains well away from Table 1's, so that every term,
+/// the integral's included, shows at the test frequencies.
+#[test]
+fn learning_response_is_the_stepped_loops_response() {
+    use ckcm::control::Gains;
+    use ckcm::convergence::ModeLoop;
+    let gains = Gains {
+        kp: 1e4,
+        ki: 1e5,
+        kd: 100.0,
+        phi: 1.0,
+        gamma: 0.1,
+        psi: 10.0,
+    };
+    let mode = ModeLoop {
+        mass: 10.0,
+        viscous: 100.0,
+        gains,
+        h: 1e-3,
+    };
+    let (m, b, h) = (mode.mass, mode.viscous, mode.h);
+    for f in [2.0, 25.0, 160.0] {
+        let w = std::f64::consts::TAU * f;
+        // Exact zero-order-hold step of m ẍ + b ẋ = force.
+        let a = b / m;
+        let p = (-a * h).exp();
+        let (c1, c3) = ((1.0 - p) / a, (1.0 - p) / b);
+        let c2 = (h - c1) / b;
+        let (mut x, mut v, mut integral) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let steps = 20_000;
+        // The last second: a whole number of periods at each test frequency.
+        let window = 1_000;
+        let (mut u_hat, mut d_hat) = ((0.0, 0.0), (0.0, 0.0));
+        for n in 0..steps {
+            let t = n as f64 * h;
+            let u = (w * t).cos();
+            let (e, ed) = (-x, -v);
+            integral += h * e;
+            let force = gains.kp * e + gains.ki * integral + gains.kd * ed + u;
+            let delta = gains.phi * e + gains.psi * integral + gains.gamma * ed;
+            if n >= steps - window {
+                let (c, s) = ((w * t).cos(), -(w * t).sin());
+                u_hat = (u_hat.0 + u * c, u_hat.1 + u * s);
+                d_hat = (d_hat.0 + delta * c, d_hat.1 + delta * s);
+            }
+            (x, v) = (x + c1 * v + c2 * force, p * v + c3 * force);
+        }
+        // −Δ̂ / û, as a complex quotient.
+        let den = u_hat.0 * u_hat.0 + u_hat.1 * u_hat.1;
+        let re = -(d_hat.0 * u_hat.0 + d_hat.1 * u_hat.1) / den;
+        let im = -(d_hat.1 * u_hat.0 - d_hat.0 * u_hat.1) / den;
+        let lp = mode.learning_response(f);
+        let err = ((lp.re - re).powi(2) + (lp.im - im).powi(2)).sqrt() / lp.norm();
+        assert!(
+            err < 1e-9,
+            "{f} Hz: L P = {lp}, stepped loop {re} + {im}i (relative difference {err:e})"
+        );
+    }
+}
