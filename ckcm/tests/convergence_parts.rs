@@ -5,7 +5,7 @@
 
 use ckcm::convergence::{
     ConvergenceError, ModeSpread, bands_above_one, frequency_grid, mass_grid, mass_history,
-    mode_spread, q_gain_sq, validate,
+    max_safe_cutoff, mode_spread, q_gain_sq, validate,
 };
 use ckcm::learning::{LowPass, MAX_ORDER, UpdateSettings, butter_lowpass};
 use ckcm::{Mechanism, Params, Trajectory};
@@ -236,4 +236,41 @@ fn learning_response_is_the_stepped_loops_response() {
             "{f} Hz: L P = {lp}, stepped loop {re} + {im}i (relative difference {err:e})"
         );
     }
+}
+
+/// An envelope of 4 at 100 Hz and 0.5 elsewhere: a cutoff is safe while |Q(100 Hz)|² ≤ 1/4,
+/// that is tan(π f_c h) ≤ tan(π 100 h) / 3^{1/(2N)}; the search finds that cutoff to its
+/// 1e-4 from below. An envelope above 2 at the grid's first frequency leaves no safe
+/// cutoff; one nowhere above 1 needs no filter (Nyquist).
+#[test]
+fn the_safe_cutoff_is_found_where_the_filter_just_holds_the_envelope() {
+    let h = 1e-3;
+    let grid = frequency_grid(h, 1.0, 400);
+    let spike = |f0: f64, height: f64| -> Vec<f64> {
+        let i = grid
+            .iter()
+            .enumerate()
+            .min_by(|a, b| (a.1 - f0).abs().total_cmp(&(b.1 - f0).abs()))
+            .unwrap()
+            .0;
+        (0..grid.len())
+            .map(|k| if k == i { height } else { 0.5 })
+            .collect()
+    };
+    let envelope = spike(100.0, 4.0);
+    let f0 = grid[envelope.iter().position(|&e| e > 1.0).unwrap()];
+    let pi_h = std::f64::consts::PI * h;
+    for order in [1, 2, 4] {
+        let exact = ((pi_h * f0).tan() / 3f64.powf(0.5 / order as f64)).atan() / pi_h;
+        let found = max_safe_cutoff(&envelope, &grid, order, h).unwrap();
+        assert!(
+            found <= exact && found > exact * (1.0 - 2e-4),
+            "order {order}: found {found} Hz, exact {exact} Hz"
+        );
+    }
+    assert_eq!(max_safe_cutoff(&spike(1.0, 2.5), &grid, 2, h), None);
+    assert_eq!(
+        max_safe_cutoff(&vec![0.9; grid.len()], &grid, 2, h),
+        Some(500.0)
+    );
 }
