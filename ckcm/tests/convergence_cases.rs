@@ -141,3 +141,20 @@ fn a_stride_beyond_a_million_poses_is_refused() {
     let history = ckcm::convergence::mass_history(&p.plant, &p.trajectory, 5e-3).unwrap();
     assert_eq!(history.len(), 1001, "every 5 ms along 5 s, both ends");
 }
+
+/// The unfiltered curves and bands leave the filter out and nothing else: a filtered
+/// campaign's are its unfiltered twin's, and its filtered curves are those times |Q|².
+#[test]
+fn the_unfiltered_curves_are_the_campaign_without_its_filter() {
+    let filtered = analyse(&circle(Some((2, 5.0)), 0, 1.0)).unwrap();
+    let bare = analyse(&circle(None, 0, 1.0)).unwrap();
+    assert_eq!(filtered.unfiltered_bands, bare.unfiltered_bands);
+    assert!(!bare.unfiltered_bands.is_empty());
+    for (f, b) in filtered.modes.iter().zip(&bare.modes) {
+        assert_eq!(f.unfiltered, b.unfiltered);
+        assert_eq!(b.worst, b.unfiltered);
+        for ((w, u), q) in f.worst.iter().zip(&f.unfiltered).zip(&filtered.q_gain_sq) {
+            assert!((w - u * q).abs() <= 1e-12 * u, "{w} against {u} × {q}");
+        }
+    }
+}

@@ -274,3 +274,15 @@ fn the_safe_cutoff_is_found_where_the_filter_just_holds_the_envelope() {
         Some(500.0)
     );
 }
+
+/// The largest mass held for the whole of a window `dwell` long: windows of dwell / stride
+/// + 1 samples, the whole series at most.
+#[test]
+fn the_sustained_mass_is_the_best_windows_minimum() {
+    use ckcm::convergence::sustained_mass;
+    let masses = [1.0, 5.0, 4.0, 6.0, 2.0];
+    assert_eq!(sustained_mass(&masses, 1.0, 0.0), 6.0);
+    assert_eq!(sustained_mass(&masses, 1.0, 1.0), 4.0);
+    assert_eq!(sustained_mass(&masses, 0.5, 1.0), 4.0);
+    assert_eq!(sustained_mass(&masses, 1.0, 10.0), 1.0);
+}
