@@ -157,6 +157,15 @@ fn bands_above_one_are_found_and_their_edges_refined() {
     assert_eq!(tail.len(), 1);
     assert!((tail[0].0 / 100.0 - 1.0).abs() < 2e-6);
     assert_eq!(tail[0].1, 150.0);
+    // A factor of exactly 1 neither grows nor shrinks the memory: not above one.
+    let at_one = |f: f64| if f > 10.0 && f < 20.0 { 2.0 } else { 1.0 };
+    assert_eq!(bands_above_one(&grid, at_one), bands);
+    // Edges refined relative to their frequency, below 1 Hz as well.
+    let low: Vec<f64> = grid.iter().map(|f| f / 100.0).collect();
+    let low_bands = bands_above_one(&low, |f| step(f * 100.0));
+    assert_eq!(low_bands.len(), 1, "{low_bands:?}");
+    assert!((low_bands[0].0 / 0.1 - 1.0).abs() < 2e-6, "{low_bands:?}");
+    assert!((low_bands[0].1 / 0.2 - 1.0).abs() < 2e-6, "{low_bands:?}");
     assert!(bands_above_one(&grid, |_| 0.5).is_empty());
     assert_eq!(bands_above_one(&grid, |_| 2.0), vec![(1.5, 150.0)]);
 }
@@ -245,7 +254,7 @@ fn learning_response_is_the_stepped_loops_response() {
 #[test]
 fn the_safe_cutoff_is_found_where_the_filter_just_holds_the_envelope() {
     let h = 1e-3;
-    let grid = frequency_grid(h, 1.0, 400);
+    let grid = frequency_grid(h, 0.1, 400);
     let spike = |f0: f64, height: f64| -> Vec<f64> {
         let i = grid
             .iter()
@@ -257,18 +266,21 @@ fn the_safe_cutoff_is_found_where_the_filter_just_holds_the_envelope() {
             .map(|k| if k == i { height } else { 0.5 })
             .collect()
     };
-    let envelope = spike(100.0, 4.0);
-    let f0 = grid[envelope.iter().position(|&e| e > 1.0).unwrap()];
     let pi_h = std::f64::consts::PI * h;
-    for order in [1, 2, 4] {
-        let exact = ((pi_h * f0).tan() / 3f64.powf(0.5 / order as f64)).atan() / pi_h;
-        let found = max_safe_cutoff(&envelope, &grid, order, h).unwrap();
-        assert!(
-            found <= exact && found > exact * (1.0 - 2e-4),
-            "order {order}: found {found} Hz, exact {exact} Hz"
-        );
+    // At 100 Hz, and below 1 Hz, where the search's tolerance must stay relative.
+    for at in [100.0, 0.5] {
+        let envelope = spike(at, 4.0);
+        let f0 = grid[envelope.iter().position(|&e| e > 1.0).unwrap()];
+        for order in [1, 2, 4] {
+            let exact = ((pi_h * f0).tan() / 3f64.powf(0.5 / order as f64)).atan() / pi_h;
+            let found = max_safe_cutoff(&envelope, &grid, order, h).unwrap();
+            assert!(
+                found <= exact && found > exact * (1.0 - 2e-4),
+                "order {order}: found {found} Hz, exact {exact} Hz"
+            );
+        }
     }
-    assert_eq!(max_safe_cutoff(&spike(1.0, 2.5), &grid, 2, h), None);
+    assert_eq!(max_safe_cutoff(&spike(0.1, 2.5), &grid, 2, h), None);
     assert_eq!(
         max_safe_cutoff(&vec![0.9; grid.len()], &grid, 2, h),
         Some(500.0)
