@@ -396,7 +396,7 @@ mod tests {
         same_bits_for(&mech, 20_000);
         // Platform joints off the platform's plane (`Mechanism::new` puts them in it), so
         // that every term of r = R a counts.
-        let mut below = mech.clone();
+        let mut below = mech;
         for (i, a) in below.a_platform.iter_mut().enumerate() {
             a.z = -0.02 - 0.005 * i as f64;
         }
