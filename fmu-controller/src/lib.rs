@@ -475,6 +475,35 @@ mod tests {
         c
     }
 
+    /// A failed control law names the first non-finite element of the first output that
+    /// has one (1-based), or the integral when every output is finite.
+    #[test]
+    fn a_non_finite_output_is_named_by_its_element() {
+        let finite = Vector6::new(1.0, 2.0, 3.0, 4.0, 5.0, 6.0);
+        let bad = Vector6::new(1.0, 2.0, f64::INFINITY, f64::NAN, 5.0, 6.0);
+        let input = ControlInput {
+            length: Vector6::from_element(0.6),
+            velocity: Vector6::zeros(),
+            memory: Vector6::zeros(),
+        };
+        let integral = Vector6::zeros();
+        let e = not_finite_output(
+            0.5,
+            &[("force", &finite), ("error", &bad)],
+            &integral,
+            &input,
+        );
+        assert!(
+            e.message.starts_with(
+                "control law failed at t = 0.5 s: output error[3] = inf is not finite"
+            ),
+            "{}",
+            e.message
+        );
+        let e = not_finite_output(0.5, &[("force", &finite)], &bad, &input);
+        assert!(e.message.contains("the error integral"), "{}", e.message);
+    }
+
     fn table_of(c: &HlcsController) -> Arc<ReferenceTable> {
         Arc::clone(c.sim.as_ref().unwrap().table.as_ref().unwrap())
     }
