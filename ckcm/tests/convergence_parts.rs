@@ -35,7 +35,8 @@ fn q_gain_is_the_designed_filters_squared_magnitude() {
             // The numerator/denominator form loses about a digit per order at low
             // normalised cutoffs (learning::MAX_ORDER): its gain at 0 Hz, 1 in exact
             // arithmetic, measures what it lost (0.8 % for order 8 at 5 Hz). Summing the
-            // response near z = 1, where a(z) nearly cancels, costs up to about 1e-7 more.
+            // response near z = 1, where a(z) nearly cancels, loses digits of its own: hence
+            // the 1e-6 on top.
             let lost = (1.0 - response_sq(&tf.b, &tf.a, 0.0, h)).abs();
             for f in [
                 0.0,
