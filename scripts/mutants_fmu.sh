@@ -11,7 +11,8 @@
 # tests), caught_in_crate (the crate's tests), missed.
 #
 # Needs: cargo-mutants, a clean tree (it edits sources in place and restores them with
-# `git checkout`; do not edit while it runs).
+# `git checkout`; do not edit while it runs). CKCM_MUTANTS_FROM=I starts at mutant I (0-based,
+# in the list's order), to carry on a run that was stopped; results.tsv is then appended to.
 # Usage: scripts/mutants_fmu.sh OUT
 set -uo pipefail
 
@@ -36,8 +37,9 @@ cargo build --profile mutants -q -p fmu-plant -p fmu-controller && package || ex
 cargo build -q -p foreign-fmu || exit 1
 cargo test -q -p orchestrator "${tests[@]}" > "$out/baseline.log" 2>&1 \
   || { echo "the unmutated tree fails the selection: see $out/baseline.log" >&2; exit 1; }
-: > "$out/results.tsv"
-for ((i = 0; i < n; i++)); do
+from=${CKCM_MUTANTS_FROM:-0}
+[ "$from" -eq 0 ] && : > "$out/results.tsv"
+for ((i = from; i < n; i++)); do
   python3 - "$out/mutants.json" "$i" "$out/cur.diff" > "$out/cur.meta" <<'PY'
 import json, sys
 m = json.load(open(sys.argv[1]))[int(sys.argv[2])]
