@@ -1277,8 +1277,7 @@ mod tests {
     /// A two-FMU scenario over the shipped model descriptions (no FMU is opened), with the
     /// metrics of `scenarios/line-hlcs.toml` and the given start time.
     fn scenario(start_time: f64) -> Scenario {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let text = format!(
+        parse_scenario(&format!(
             r#"
 start_time = {start_time}
 step_size = 0.001
@@ -1297,8 +1296,13 @@ pose = "plant.pose"
 trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
 "#,
             stop = start_time + 1.0
-        );
-        Scenario::parse(&text, Path::new("s.toml"), |path| {
+        ))
+    }
+
+    /// `text` parsed as `s.toml`, its FMUs' model descriptions taken from the shipped ones.
+    fn parse_scenario(text: &str) -> Scenario {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        Scenario::parse(text, Path::new("s.toml"), |path| {
             let xml = root
                 .join("modelDescription")
                 .join(path.with_extension("xml"));
@@ -1330,6 +1334,53 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
     }
 
     /// A recording's file name gives back its trial and format; other names give nothing.
+    /// The estimate is the sum of the buffers its doc lists, counted here by hand: 1,000
+    /// steps, memory links of 6 values, 12 recorded columns every third step.
+    #[test]
+    fn memory_estimate_adds_up_the_buffers_it_names() {
+        let with = |memories: &str, record: &str| {
+            parse_scenario(&format!(
+                r#"
+step_size = 0.001
+stop_time = 1.0
+[[fmu]]
+name = "controller"
+path = "HlcsController.fmu"
+[[fmu]]
+name = "plant"
+path = "CkcmPlant.fmu"
+{memories}
+{record}
+"#
+            ))
+        };
+        let memory = "[[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n";
+        let record =
+            "[record]\nvariables = [\"controller.force\", \"plant.length\"]\ninterval = 3\n";
+        // Signals and metric work arrays: 14 values per step.
+        let signals = 8 * 1000 * 14;
+        // Read, write, resumed copy and memory.csv's column per memory value, plus its time.
+        let memory_bytes = |width: u64| 8 * 1000 * (4 * width + 1);
+        // ceil(1000 / 3) = 334 rows of 12 columns and the time.
+        let recording = 8 * 334 * 13;
+        let bare = with("", "");
+        assert_eq!(bare.steps, 1000);
+        // Without a [record] table the recording is its time column, every step.
+        assert_eq!(recording_bytes(&bare), 8000.0);
+        assert_eq!(memory_estimate(&bare), memory_bytes(0) + signals + 8000);
+        assert_eq!(recording_bytes(&with("", record)), recording as f64);
+        assert_eq!(
+            memory_estimate(&with(memory, record)),
+            memory_bytes(6) + signals + recording
+        );
+        // Each memory link adds its own four copies; the time column is counted once.
+        let second = "[[memory]]\nfrom = \"controller.force\"\nto = \"plant.force\"\n";
+        assert_eq!(
+            memory_estimate(&with(&format!("{memory}{second}"), "")),
+            memory_bytes(12) + signals + 8000
+        );
+    }
+
     #[test]
     fn trial_of_file_inverts_trial_file() {
         for format in [RecordFormat::Csv, RecordFormat::Parquet] {
