@@ -1381,6 +1381,25 @@ path = "CkcmPlant.fmu"
         );
     }
 
+    /// A campaign is refused only beyond the limit: 131,072 steps with nothing stored but
+    /// the signals and two time columns (`memory.csv`'s and the recording's) need 128 bytes
+    /// a step, 16 MiB exactly.
+    #[test]
+    fn a_campaign_exactly_at_the_memory_limit_runs() {
+        let at_limit = parse_scenario(
+            "step_size = 0.001\nstop_time = 131.072\n\
+             [[fmu]]\nname = \"plant\"\npath = \"CkcmPlant.fmu\"\n",
+        );
+        assert_eq!(at_limit.steps, 131_072);
+        assert_eq!(memory_estimate(&at_limit), 16 << 20);
+        assert!(check_memory(&at_limit, Some(16)).is_ok());
+        let err = check_memory(&at_limit, Some(15)).unwrap_err().to_string();
+        assert!(
+            err.contains("more than --memory-limit-mib of 15 MiB"),
+            "{err}"
+        );
+    }
+
     #[test]
     fn trial_of_file_inverts_trial_file() {
         for format in [RecordFormat::Csv, RecordFormat::Parquet] {
