@@ -463,6 +463,14 @@ fmi2_export::export_fmu!(HlcsController);
 mod tests {
     use super::*;
 
+    /// Held by every test that makes models: `shared_tables_go_with_the_last_model` counts
+    /// them, so no other test may make one meanwhile.
+    static MODELS: Mutex<()> = Mutex::new(());
+
+    fn models() -> std::sync::MutexGuard<'static, ()> {
+        MODELS.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     /// A line controller of 0.2 s, initialised and stepped twice by one step size, so it
     /// holds a table.
     fn stepped() -> HlcsController {
@@ -510,10 +518,10 @@ mod tests {
 
     /// The shared tables stay while any model lives (across an fmi2Reset, which replaces the
     /// model by a fresh one, and in a saved FMU state) and go with the last one, as when a
-    /// master frees the instance and unloads this copy of the library. The only test here
-    /// that makes models, so no other test changes the count meanwhile.
+    /// master frees the instance and unloads this copy of the library.
     #[test]
     fn shared_tables_go_with_the_last_model() {
+        let _models = models();
         let count = || {
             let s = shared();
             (s.live, s.tables.len())
@@ -539,6 +547,66 @@ mod tests {
         assert_eq!(count(), (1, 1));
         drop(b);
         assert_eq!(count(), (0, 0), "the last model takes the tables with it");
+    }
+
+    /// The table is a cache: the outputs are the same bits without it
+    /// (`ckcm::closed_loop`'s `the_table_changes_no_bit`), so only the model's state shows
+    /// whether it serves the steps. It serves the grid times of the step size in use, from
+    /// the start time; a new step size gets its own table on its second use in a row (one
+    /// step of another size makes none), and the old one comes back from the shared tables.
+    #[test]
+    fn steps_on_the_grid_are_served_by_the_table_of_their_step_size() {
+        let _models = models();
+        let grid = |n: u32, h: f64| f64::from(n) * h;
+        let mut c = HlcsController::new();
+        c.set_integer(vr::TRAJECTORY, TRAJECTORY_LINE).unwrap();
+        c.set_real(vr::DURATION, 0.2).unwrap();
+        c.initialize(0.5).unwrap();
+        let step = |c: &mut HlcsController, n: u32, h: f64| {
+            c.do_step(0.5 + grid(n, h), h).unwrap();
+            c.sim
+                .as_ref()
+                .unwrap()
+                .table
+                .as_ref()
+                .map(|tb| tb.step_size())
+        };
+        assert_eq!(
+            step(&mut c, 0, 1e-3),
+            None,
+            "one step of a size makes no table"
+        );
+        assert_eq!(step(&mut c, 1, 1e-3), Some(1e-3));
+        let sim = c.sim.as_ref().unwrap();
+        for n in [2, 3, 100, 200] {
+            assert!(
+                sim.tabulated(0.5 + grid(n, 1e-3)).is_some(),
+                "t = 0.5 + {n} ms"
+            );
+        }
+        assert!(sim.tabulated(0.5 + 1.5e-3).is_none(), "off the grid");
+        assert!(
+            sim.tabulated(0.5 + grid(201, 1e-3)).is_none(),
+            "past the trajectory"
+        );
+        assert_eq!(step(&mut c, 2, 1e-3), Some(1e-3));
+        // Another step size: computed on the spot once, then tabulated.
+        assert_eq!(step(&mut c, 1, 2e-3), None);
+        assert_eq!(step(&mut c, 2, 2e-3), Some(2e-3));
+        assert!(
+            c.sim
+                .as_ref()
+                .unwrap()
+                .tabulated(0.5 + grid(3, 2e-3))
+                .is_some()
+        );
+        // Back to 1 ms: the shared table, at once.
+        assert_eq!(step(&mut c, 6, 1e-3), Some(1e-3));
+        // A zero step (a master that only evaluates) tabulates nothing.
+        assert_eq!(step(&mut c, 7, 0.0), Some(1e-3));
+        // Nor does a step whose table would outgrow MAX_TABLE_SAMPLES (0.2 s / 0.1 µs).
+        assert_eq!(step(&mut c, 70_000, 1e-7), None);
+        assert_eq!(step(&mut c, 70_001, 1e-7), None);
     }
 
     /// A `model.*` parameter that is no mechanism field (here `model.gravity` renamed) is
