@@ -417,19 +417,23 @@ fn unmeasured_trials_are_reported_as_such() {
     for (k, row) in rows.iter().enumerate() {
         assert_eq!(*row, format!("{k}{}", ",".repeat(23)), "{summary}");
     }
-    // An earlier version's interrupted campaign: one trial, zeros in the metric cells.
-    let old = tmp.path().join("old");
-    let o = run(&s, &old, &["--stop-after", "1"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // An earlier version's interrupted campaign: one trial, zeros in the leg metrics' cells
+    // (and, so that both halves of the rewrite are seen, in the path's).
     let header = summary.lines().next().unwrap();
-    let zeros = format!("{header}\n0{}\n", ",0".repeat(21) + ",,");
-    std::fs::write(old.join("summary.csv"), zeros).unwrap();
-    let o = run(&s, &old, &["--resume"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(
-        std::fs::read_to_string(old.join("summary.csv")).unwrap(),
-        summary
-    );
+    for (name, path_cells) in [("old", ",,"), ("old-path", ",0,0")] {
+        let old = tmp.path().join(name);
+        let o = run(&s, &old, &["--stop-after", "1"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let zeros = format!("{header}\n0{}{path_cells}\n", ",0".repeat(21));
+        std::fs::write(old.join("summary.csv"), zeros).unwrap();
+        let o = run(&s, &old, &["--resume"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            std::fs::read_to_string(old.join("summary.csv")).unwrap(),
+            summary,
+            "{name}"
+        );
+    }
 }
 
 /// FNV-1a 64 as earlier versions fingerprinted a campaign: the scenario text as given, then
