@@ -1400,6 +1400,29 @@ path = "CkcmPlant.fmu"
         );
     }
 
+    /// Each way two saved texts can differ is worded as such, with the line numbered as in
+    /// the saved file (blank lines count) and spaces around a line ignored.
+    #[test]
+    fn first_difference_words_each_kind_of_difference() {
+        let diff = |theirs, ours| first_difference(theirs, ours, "scenario.toml", "this one");
+        assert_eq!(
+            diff("a = 1\n\nb = 2\n", "a = 1\nb = 3\n"),
+            "line 3 of its scenario.toml reads `b = 2`, where this one has `b = 3`"
+        );
+        assert_eq!(
+            diff("a = 1\nb = 2\n", "a = 1\n"),
+            "line 2 of its scenario.toml reads `b = 2`, where this one has nothing more"
+        );
+        assert_eq!(
+            diff("a = 1\n", "a = 1\n\nb = 2\n"),
+            "its scenario.toml ends, where this one has `b = 2`"
+        );
+        assert_eq!(
+            diff("  a = 1\n\n\nb = 2   \n", "a = 1\nb = 2"),
+            "its scenario.toml differs from this one in blank lines or spaces only"
+        );
+    }
+
     #[test]
     fn trial_of_file_inverts_trial_file() {
         for format in [RecordFormat::Csv, RecordFormat::Parquet] {
