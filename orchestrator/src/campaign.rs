@@ -1274,6 +1274,10 @@ mod tests {
     use super::*;
     use fmi2_md::ModelDescription;
 
+    /// The shipped controller and plant, as a scenario's `[[fmu]]` tables.
+    const TWO_FMUS: &str = "[[fmu]]\nname = \"controller\"\npath = \"HlcsController.fmu\"\n\
+                            [[fmu]]\nname = \"plant\"\npath = \"CkcmPlant.fmu\"\n";
+
     /// A two-FMU scenario over the shipped model descriptions (no FMU is opened), with the
     /// metrics of `scenarios/line-hlcs.toml` and the given start time.
     fn scenario(start_time: f64) -> Scenario {
@@ -1282,13 +1286,7 @@ mod tests {
 start_time = {start_time}
 step_size = 0.001
 stop_time = {stop}
-[[fmu]]
-name = "controller"
-path = "HlcsController.fmu"
-[[fmu]]
-name = "plant"
-path = "CkcmPlant.fmu"
-[metrics]
+{TWO_FMUS}[metrics]
 reference = "controller.length_ref"
 length = "plant.length_true"
 rho = 5.0
@@ -1343,13 +1341,7 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
                 r#"
 step_size = 0.001
 stop_time = 1.0
-[[fmu]]
-name = "controller"
-path = "HlcsController.fmu"
-[[fmu]]
-name = "plant"
-path = "CkcmPlant.fmu"
-{memories}
+{TWO_FMUS}{memories}
 {record}
 "#
             ))
