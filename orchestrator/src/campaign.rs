@@ -1415,6 +1415,45 @@ stop_time = 1.0
         );
     }
 
+    /// What keeps a new campaign out of a folder: anything but the lock file, except a
+    /// `trials` folder holding only failed first trials' recordings (what a run that failed
+    /// there leaves). A user's file or folder in `trials` keeps it out, also one named like
+    /// such a recording.
+    #[test]
+    fn only_a_failed_first_trials_recording_lets_a_new_campaign_in() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        assert_eq!(existing_files(&dir.join("missing")), None);
+        fs::write(dir.join(LOCK_FILE), "").unwrap();
+        assert_eq!(existing_files(dir), Some(vec![]));
+        fs::create_dir(dir.join("trials")).unwrap();
+        for format in [RecordFormat::Csv, RecordFormat::Parquet] {
+            fs::write(failed_trial_file(dir, 0, format), "").unwrap();
+        }
+        assert_eq!(existing_files(dir), Some(vec![]));
+        let trials = Some(vec!["trials".to_owned()]);
+        for name in [
+            "notes.txt",
+            "trial_001.failed.csv",
+            "trial_000.csv",
+            "trial_000.failed.json",
+        ] {
+            let path = dir.join("trials").join(name);
+            fs::write(&path, "").unwrap();
+            assert_eq!(existing_files(dir), trials, "{name}");
+            fs::remove_file(&path).unwrap();
+        }
+        let parquet = failed_trial_file(dir, 0, RecordFormat::Parquet);
+        fs::remove_file(&parquet).unwrap();
+        fs::create_dir(&parquet).unwrap();
+        assert_eq!(existing_files(dir), trials, "a folder");
+        fs::write(dir.join("summary.csv"), "").unwrap();
+        assert_eq!(
+            existing_files(dir),
+            Some(vec!["summary.csv".to_owned(), "trials".to_owned()])
+        );
+    }
+
     #[test]
     fn trial_of_file_inverts_trial_file() {
         for format in [RecordFormat::Csv, RecordFormat::Parquet] {
