@@ -602,7 +602,7 @@ mod tests {
         );
         // Back to 1 ms: the shared table, at once.
         assert_eq!(step(&mut c, 6, 1e-3), Some(1e-3));
-        // A zero step (a master that only evaluates) tabulates nothing.
+        // A zero step tabulates nothing.
         assert_eq!(step(&mut c, 7, 0.0), Some(1e-3));
         // Nor does a step whose table would outgrow MAX_TABLE_SAMPLES (0.2 s / 0.1 µs).
         assert_eq!(step(&mut c, 70_000, 1e-7), None);
