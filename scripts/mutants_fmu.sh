@@ -16,6 +16,11 @@
 # Usage: scripts/mutants_fmu.sh OUT
 set -uo pipefail
 
+from=${CKCM_MUTANTS_FROM:-0}
+if ! [[ $from =~ ^(0|[1-9][0-9]*)$ ]]; then
+  echo "CKCM_MUTANTS_FROM=$from: expected a mutant index (0, 1, ...)" >&2
+  exit 2
+fi
 out=$(mkdir -p "${1:?usage: scripts/mutants_fmu.sh OUT}" && cd "$1" && pwd)
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cd "$repo"
@@ -32,13 +37,16 @@ package() { python3 "$repo/scripts/package_fmu_linux.py" "$repo" "$out/fmu"; }
 
 cargo mutants --list --json --diff -p fmu-plant -p fmu-controller > "$out/mutants.json"
 n=$(python3 -c "import json,sys; print(len(json.load(open(sys.argv[1]))))" "$out/mutants.json")
+if ((from >= n)); then
+  echo "CKCM_MUTANTS_FROM=$from: there are only $n mutants (0 to $((n - 1)))" >&2
+  exit 2
+fi
 echo "mutants: $n"
 cargo build --profile mutants -q -p fmu-plant -p fmu-controller && package || exit 1
 cargo build -q -p foreign-fmu || exit 1
 cargo test -q -p orchestrator "${tests[@]}" > "$out/baseline.log" 2>&1 \
   || { echo "the unmutated tree fails the selection: see $out/baseline.log" >&2; exit 1; }
-from=${CKCM_MUTANTS_FROM:-0}
-[ "$from" -eq 0 ] && : > "$out/results.tsv"
+((from == 0)) && : > "$out/results.tsv"
 for ((i = from; i < n; i++)); do
   python3 - "$out/mutants.json" "$i" "$out/cur.diff" > "$out/cur.meta" <<'PY'
 import json, sys

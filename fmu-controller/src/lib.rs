@@ -471,13 +471,18 @@ mod tests {
         MODELS.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// A line controller of 0.2 s, initialised and stepped twice by one step size, so it
-    /// holds a table.
-    fn stepped() -> HlcsController {
+    /// A line controller of 0.2 s, initialised at `start_time`.
+    fn line_controller(start_time: f64) -> HlcsController {
         let mut c = HlcsController::new();
         c.set_integer(vr::TRAJECTORY, TRAJECTORY_LINE).unwrap();
         c.set_real(vr::DURATION, 0.2).unwrap();
-        c.initialize(0.0).unwrap();
+        c.initialize(start_time).unwrap();
+        c
+    }
+
+    /// [`line_controller`] from 0, stepped twice by one step size, so it holds a table.
+    fn stepped() -> HlcsController {
+        let mut c = line_controller(0.0);
         c.do_step(0.0, 1e-3).unwrap();
         c.do_step(1e-3, 1e-3).unwrap();
         c
@@ -558,18 +563,13 @@ mod tests {
     fn steps_on_the_grid_are_served_by_the_table_of_their_step_size() {
         let _models = models();
         let grid = |n: u32, h: f64| f64::from(n) * h;
-        let mut c = HlcsController::new();
-        c.set_integer(vr::TRAJECTORY, TRAJECTORY_LINE).unwrap();
-        c.set_real(vr::DURATION, 0.2).unwrap();
-        c.initialize(0.5).unwrap();
+        let mut c = line_controller(0.5);
+        fn sim(c: &HlcsController) -> &Sim {
+            c.sim.as_ref().unwrap()
+        }
         let step = |c: &mut HlcsController, n: u32, h: f64| {
             c.do_step(0.5 + grid(n, h), h).unwrap();
-            c.sim
-                .as_ref()
-                .unwrap()
-                .table
-                .as_ref()
-                .map(|tb| tb.step_size())
+            sim(c).table.as_ref().map(|tb| tb.step_size())
         };
         assert_eq!(
             step(&mut c, 0, 1e-3),
@@ -577,29 +577,22 @@ mod tests {
             "one step of a size makes no table"
         );
         assert_eq!(step(&mut c, 1, 1e-3), Some(1e-3));
-        let sim = c.sim.as_ref().unwrap();
         for n in [2, 3, 100, 200] {
             assert!(
-                sim.tabulated(0.5 + grid(n, 1e-3)).is_some(),
+                sim(&c).tabulated(0.5 + grid(n, 1e-3)).is_some(),
                 "t = 0.5 + {n} ms"
             );
         }
-        assert!(sim.tabulated(0.5 + 1.5e-3).is_none(), "off the grid");
+        assert!(sim(&c).tabulated(0.5 + 1.5e-3).is_none(), "off the grid");
         assert!(
-            sim.tabulated(0.5 + grid(201, 1e-3)).is_none(),
+            sim(&c).tabulated(0.5 + grid(201, 1e-3)).is_none(),
             "past the trajectory"
         );
         assert_eq!(step(&mut c, 2, 1e-3), Some(1e-3));
         // Another step size: computed on the spot once, then tabulated.
         assert_eq!(step(&mut c, 1, 2e-3), None);
         assert_eq!(step(&mut c, 2, 2e-3), Some(2e-3));
-        assert!(
-            c.sim
-                .as_ref()
-                .unwrap()
-                .tabulated(0.5 + grid(3, 2e-3))
-                .is_some()
-        );
+        assert!(sim(&c).tabulated(0.5 + grid(3, 2e-3)).is_some());
         // Back to 1 ms: the shared table, at once.
         assert_eq!(step(&mut c, 6, 1e-3), Some(1e-3));
         // A zero step tabulates nothing.

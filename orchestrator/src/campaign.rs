@@ -1331,7 +1331,6 @@ trajectory = {{ kind = "line", duration = 15.0, home_height = 0.5 }}
         }
     }
 
-    /// A recording's file name gives back its trial and format; other names give nothing.
     /// The estimate is the sum of the buffers its doc lists, counted here by hand: 1,000
     /// steps, memory links of 6 values, 12 recorded columns every third step.
     #[test]
@@ -1378,10 +1377,9 @@ stop_time = 1.0
     /// a step, 16 MiB exactly.
     #[test]
     fn a_campaign_exactly_at_the_memory_limit_runs() {
-        let at_limit = parse_scenario(
-            "step_size = 0.001\nstop_time = 131.072\n\
-             [[fmu]]\nname = \"plant\"\npath = \"CkcmPlant.fmu\"\n",
-        );
+        let at_limit = parse_scenario(&format!(
+            "step_size = 0.001\nstop_time = 131.072\n{TWO_FMUS}"
+        ));
         assert_eq!(at_limit.steps, 131_072);
         assert_eq!(memory_estimate(&at_limit), 16 << 20);
         assert!(check_memory(&at_limit, Some(16)).is_ok());
@@ -1454,6 +1452,7 @@ stop_time = 1.0
         );
     }
 
+    /// A recording's file name gives back its trial and format; other names give nothing.
     #[test]
     fn trial_of_file_inverts_trial_file() {
         for format in [RecordFormat::Csv, RecordFormat::Parquet] {
