@@ -5,9 +5,11 @@
 //!
 //! Needs the packaged FMUs: `cargo xtask fmu`, then `cargo bench -p orchestrator --bench cosim`.
 //! `CKCM_FMU_DIR` overrides where they are looked for (default `<workspace>/target/fmu`).
-//! `CKCM_ALTERNATE=N` (N ≥ 1) also times N rounds of the floor, the recorded and the
-//! unrecorded trial back to back and prints the median ratios (filter `alternated_only` to
-//! run only those; BENCHMARKS.md, round 22). With it, `CKCM_FMU_DIR_B` times a second
+//! `CKCM_ALTERNATE=N` (N ≥ 1) also times N rounds of the two floors (one recording the
+//! row a recorded trial stores, one keeping only the metrics' signals), the recorded and
+//! the unrecorded trial back to back and prints the median ratios, each trial against the
+//! floor doing the same work (filter `alternated_only` to run only those; BENCHMARKS.md,
+//! rounds 22 and 58). With it, `CKCM_FMU_DIR_B` times a second
 //! build's FMUs in the same rounds and prints their ratio to the first's (round 30).
 
 use std::hint::black_box;
@@ -319,6 +321,32 @@ fn line_trial(c: &mut Criterion) {
             )
             .expect("the line trial runs")
         };
+    // The floor an unrecorded `Master` trial is judged against: the same trial keeping only
+    // the metrics' signals, so neither side computes the pose's angles or stores a row.
+    let floor_unrecorded =
+        |read: &[Vector6<f64>], write: &mut [Vector6<f64>], floor_signals: &mut TrialSignals| {
+            let mut controller = Hlcs::new(nominal, ControlSettings::default());
+            let mut integrator = Integrator::default();
+            floor_signals.clear();
+            run_trial_with_table(
+                &plant,
+                &mut integrator,
+                &mut controller,
+                &trajectory,
+                H,
+                Some(&table),
+                read,
+                write,
+                |n, state, input, out| {
+                    let error = out.length_ref - input.length;
+                    floor_signals.error.push(error.into());
+                    let p = state.pose.p_world;
+                    floor_signals.position.push([p.x, p.y, p.z]);
+                    floor_signals.time.push(n as f64 * H);
+                },
+            )
+            .expect("the line trial runs")
+        };
     let mut floor_memory = vec![Vector6::zeros(); steps];
     let mut floor_next = vec![Vector6::zeros(); steps];
     floor(
@@ -330,6 +358,16 @@ fn line_trial(c: &mut Criterion) {
     assert!(
         floor_signals == signals,
         "the floor's trial 0 differs from Master's"
+    );
+    let mut learned_unrecorded = vec![Vector6::zeros(); steps];
+    floor_unrecorded(
+        &vec![Vector6::zeros(); steps],
+        &mut learned_unrecorded,
+        &mut floor_signals,
+    );
+    assert!(
+        floor_signals == signals && learned_unrecorded == floor_memory,
+        "the unrecorded floor's trial 0 differs from the recording floor's"
     );
 
     let mut g = c.benchmark_group("line_trial_15s");
@@ -353,6 +391,15 @@ fn line_trial(c: &mut Criterion) {
     g.bench_function("floor", |b| {
         b.iter(|| {
             floor(
+                black_box(&floor_memory),
+                &mut floor_next,
+                &mut floor_signals,
+            )
+        })
+    });
+    g.bench_function("floor_unrecorded", |b| {
+        b.iter(|| {
+            floor_unrecorded(
                 black_box(&floor_memory),
                 &mut floor_next,
                 &mut floor_signals,
@@ -391,20 +438,36 @@ fn line_trial(c: &mut Criterion) {
         .zip(fmus_b)
         .map(|(sc, fmus)| Master::new(sc, fmus, false).expect("master of build B"));
     let mut primed_b = master_b.as_mut().map(prime);
-    // Trials of a round: the floor, then (recorded?, build B?) for each `Master` trial.
-    let mut kinds = vec![None, Some((true, false)), Some((false, false))];
-    if master_b.is_some() {
-        kinds.extend([Some((true, true)), Some((false, true))]);
+    // Trials of a round: each floor, then each `Master` trial. A trial is judged against the
+    // floor that does the same work besides FMI: recorded against the floor that records the
+    // same row, unrecorded against the floor that keeps only the metrics' signals.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Kind {
+        Floor { recorded: bool },
+        Master { recorded: bool, build_b: bool },
     }
-    let mut ratios = vec![Vec::with_capacity(rounds); kinds.len()];
-    let mut floor_times = Vec::with_capacity(rounds);
+    let mut kinds = vec![
+        Kind::Floor { recorded: true },
+        Kind::Floor { recorded: false },
+    ];
+    let builds: &[bool] = if master_b.is_some() {
+        &[false, true]
+    } else {
+        &[false]
+    };
+    for &build_b in builds {
+        for recorded in [true, false] {
+            kinds.push(Kind::Master { recorded, build_b });
+        }
+    }
+    let index = |kind: Kind| kinds.iter().position(|&k| k == kind).expect("a timed kind");
+    let mut times = vec![Vec::with_capacity(rounds); kinds.len()];
     for round in 0..rounds {
-        let mut times = vec![0.0; kinds.len()];
         for k in 0..kinds.len() {
             let which = (round + k) % kinds.len();
+            let start = Instant::now();
             let elapsed = match kinds[which] {
-                None => {
-                    let start = Instant::now();
+                Kind::Floor { recorded: true } => {
                     floor(
                         black_box(&floor_memory),
                         &mut floor_next,
@@ -412,18 +475,28 @@ fn line_trial(c: &mut Criterion) {
                     );
                     start.elapsed()
                 }
-                Some((recorded, false)) => timed(recorded),
-                Some((recorded, true)) => {
+                Kind::Floor { recorded: false } => {
+                    floor_unrecorded(
+                        black_box(&floor_memory),
+                        &mut floor_next,
+                        &mut floor_signals,
+                    );
+                    start.elapsed()
+                }
+                Kind::Master {
+                    recorded,
+                    build_b: false,
+                } => timed(recorded),
+                Kind::Master {
+                    recorded,
+                    build_b: true,
+                } => {
                     let (rec, sig, learned_b) = primed_b.as_mut().expect("build B is primed");
                     let m = master_b.as_mut().expect("build B is loaded");
                     timed_trial(m, learned_b, recorded.then_some(rec), sig)
                 }
             };
-            times[which] = elapsed.as_secs_f64() * 1e3;
-        }
-        floor_times.push(times[0]);
-        for (r, t) in ratios.iter_mut().zip(&times).skip(1) {
-            r.push(t / times[0]);
+            times[which].push(elapsed.as_secs_f64() * 1e3);
         }
     }
     let median = |v: &[f64]| {
@@ -431,31 +504,36 @@ fn line_trial(c: &mut Criterion) {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    // Per round, trial `a` over trial `b`: the host's drift between rounds cancels.
+    let ratio = |a: Kind, b: Kind| {
+        let per_round: Vec<f64> = times[index(a)]
+            .iter()
+            .zip(&times[index(b)])
+            .map(|(a, b)| a / b)
+            .collect();
+        median(&per_round)
+    };
+    let floor_of = |recorded| Kind::Floor { recorded };
+    let master = |recorded, build_b| Kind::Master { recorded, build_b };
     println!(
-        "line_trial_15s alternated, {rounds} rounds: floor median {:.2} ms; Master / floor \
-         median {:.3} recorded, {:.3} unrecorded",
-        median(&floor_times),
-        median(&ratios[1]),
-        median(&ratios[2])
+        "line_trial_15s alternated, {rounds} rounds: floor median {:.2} ms recording, {:.2} ms \
+         unrecorded; Master / floor median {:.3} recorded, {:.3} unrecorded (against the \
+         recording floor: {:.3})",
+        median(&times[index(floor_of(true))]),
+        median(&times[index(floor_of(false))]),
+        ratio(master(true, false), floor_of(true)),
+        ratio(master(false, false), floor_of(false)),
+        ratio(master(false, false), floor_of(true)),
     );
     if let Some(dir) = dir_b {
-        // Within a round, B against A: the host's drift between rounds cancels.
-        let b_over_a = |b: usize, a: usize| {
-            let per_round: Vec<f64> = ratios[b]
-                .iter()
-                .zip(&ratios[a])
-                .map(|(b, a)| b / a)
-                .collect();
-            median(&per_round)
-        };
         println!(
             "  build B ({}): Master / floor median {:.3} recorded, {:.3} unrecorded; \
              B / A median {:.4} recorded, {:.4} unrecorded",
             dir.display(),
-            median(&ratios[3]),
-            median(&ratios[4]),
-            b_over_a(3, 1),
-            b_over_a(4, 2)
+            ratio(master(true, true), floor_of(true)),
+            ratio(master(false, true), floor_of(false)),
+            ratio(master(true, true), master(true, false)),
+            ratio(master(false, true), master(false, false)),
         );
     }
 }
