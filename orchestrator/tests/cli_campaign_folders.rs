@@ -398,6 +398,30 @@ fn kill_at_every_file_operation_then_resume_is_byte_identical() {
     }
 }
 
+/// A progress.toml that claims no completed trial (written by hand or by another tool: a
+/// campaign writes it only after its first trial) resumes from trial 0, replacing the files
+/// of the trials it does not claim, to the bytes of an uninterrupted run.
+#[test]
+fn a_progress_file_claiming_no_trial_resumes_from_the_first() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = scenario(tmp.path(), "");
+    let whole = tmp.path().join("whole");
+    assert!(run(&s, &whole, &[]).status.success());
+    let out = tmp.path().join("out");
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let progress = out.join("progress.toml");
+    let text = std::fs::read_to_string(&progress).unwrap();
+    assert!(text.starts_with("completed = 1\n"), "{text}");
+    std::fs::write(
+        &progress,
+        text.replacen("completed = 1", "completed = 0", 1),
+    )
+    .unwrap();
+    let o = run(&s, &out, &["--resume"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&whole, &out, "after resuming from a progress of 0 trials");
+}
+
 /// Without `[metrics]` nothing is measured: the console says so and summary.csv leaves the
 /// cells empty, not zeros that read as a perfect trial. A campaign of an earlier version
 /// (zeros in those cells) resumes into the same files as a new one.
