@@ -897,6 +897,25 @@ impl Drop for StopLanes<'_> {
     }
 }
 
+/// Lanes for `trials` trials of `scenario` when `lanes` are asked for: at most one per trial,
+/// one when a memory update needs whole trials, and no more than the memory limit (`limit_mib`
+/// as [`CampaignOptions::memory_limit_mib`]) has room for, each lane holding a master's
+/// buffers and a recording waiting for its writer.
+fn lane_count(scenario: &Scenario, limit_mib: Option<u64>, lanes: usize, trials: usize) -> usize {
+    if !Master::memory_is_plain(scenario) {
+        return 1;
+    }
+    let per_lane =
+        memory_estimate(scenario).saturating_add(saturating_u64(recording_bytes(scenario)));
+    let room = memory_limit_mib(scenario, limit_mib)
+        .0
+        .saturating_mul(1 << 20)
+        / per_lane.max(1);
+    lanes
+        .min(trials)
+        .min(usize::try_from(room).unwrap_or(usize::MAX))
+}
+
 /// Runs (or resumes) every trial of `scenario` with `fmus` opened from its FMU paths,
 /// returning the summaries of all trials.
 pub fn run_campaign(
@@ -1024,21 +1043,12 @@ pub fn run_campaign(
         ProgressBar::hidden()
     };
     let console = FmuConsole::new(bar.clone(), scenario.fmus.len()).for_campaign(dir);
-    // Each lane holds a master's buffers, and a recording waiting for its writer: as many
-    // lanes as the memory limit has room for.
-    let per_lane =
-        memory_estimate(scenario).saturating_add(saturating_u64(recording_bytes(scenario)));
-    let room = memory_limit_mib(scenario, opts.memory_limit_mib)
-        .0
-        .saturating_mul(1 << 20)
-        / per_lane.max(1);
-    let n_lanes = if Master::memory_is_plain(scenario) {
-        opts.lanes
-            .min(last.saturating_sub(first))
-            .min(usize::try_from(room).unwrap_or(usize::MAX))
-    } else {
-        1
-    };
+    let n_lanes = lane_count(
+        scenario,
+        opts.memory_limit_mib,
+        opts.lanes,
+        last.saturating_sub(first),
+    );
     let use_lanes = n_lanes >= 2;
     // One lane: this thread's master runs every trial, into one recording and one set of
     // signals. More: the lanes open their own masters below and this thread only persists
@@ -1388,6 +1398,38 @@ stop_time = 1.0
             err.contains("more than --memory-limit-mib of 15 MiB"),
             "{err}"
         );
+    }
+
+    /// Lanes as asked, but no more than trials are left and the memory limit has room for,
+    /// and one when a memory update needs the whole trial.
+    #[test]
+    fn lanes_are_as_many_as_trials_and_the_memory_limit_allow() {
+        // 16 MiB of buffers and a 1 MiB time column per lane (as in the test above).
+        let plain = parse_scenario(&format!(
+            "step_size = 0.001\nstop_time = 131.072\n{TWO_FMUS}"
+        ));
+        assert_eq!(
+            memory_estimate(&plain) + recording_bytes(&plain) as u64,
+            17 << 20
+        );
+        assert_eq!(lane_count(&plain, Some(68), 4, 10), 4);
+        assert_eq!(lane_count(&plain, Some(68), 3, 10), 3);
+        assert_eq!(lane_count(&plain, Some(68), 4, 2), 2);
+        assert_eq!(lane_count(&plain, Some(67), 4, 10), 3);
+        assert_eq!(lane_count(&plain, Some(34), 4, 10), 2);
+        assert_eq!(lane_count(&plain, Some(33), 4, 10), 1);
+        // The scenario's own limit when no option gives one.
+        let limited = parse_scenario(&format!(
+            "step_size = 0.001\nstop_time = 131.072\nmemory_limit_mib = 51\n{TWO_FMUS}"
+        ));
+        assert_eq!(lane_count(&limited, None, 4, 10), 3);
+        assert_eq!(lane_count(&limited, Some(34), 4, 10), 2);
+        let filtered = parse_scenario(&format!(
+            "step_size = 0.001\nstop_time = 1.0\n{TWO_FMUS}[[memory]]\n\
+             from = \"controller.memory_next\"\nto = \"controller.memory\"\n\
+             [memory.update]\nfilter = \"butterworth\"\norder = 2\ncutoff = 8.0\n"
+        ));
+        assert_eq!(lane_count(&filtered, Some(1 << 20), 4, 10), 1);
     }
 
     /// Each way two saved texts can differ is worded as such, with the line numbered as in
