@@ -154,7 +154,8 @@ fn failing_run(scenario: &Path, out: &Path, args: &[&str]) -> String {
 /// An output that is NaN or infinite with fmi2OK (here: a stiff spring that one explicit
 /// substep blows up in trial 1) stops the campaign like a failed call: the message names the
 /// trial, the time, the FMU and the variable, the exit is non-zero, and trial 0 is kept,
-/// with trial 1's recording up to the failure beside it, on one lane and on two.
+/// with trial 1's recording up to the failure beside it, on one lane and on two; so after a
+/// resume, and in a forced new campaign over the folder.
 #[test]
 fn a_non_finite_output_stops_the_run_and_keeps_the_completed_trials() {
     let one = non_finite_output_run("1");
@@ -229,6 +230,15 @@ variables = ["osc.x", "osc.v"]
     // A resume runs trial 1 again: it fails the same way and keeps its recording again.
     failing_run(&scenario, &out, &["--jobs", jobs, "--resume"]);
     assert_eq!(std::fs::read_to_string(&failed).unwrap(), text);
+    // A forced new campaign over this one (its own failed file gone): its trial 0 replaces
+    // the folder's campaign, so its failed trial 1 keeps its recording there too.
+    std::fs::remove_file(&failed).unwrap();
+    failing_run(&scenario, &out, &["--jobs", jobs, "--force"]);
+    assert_eq!(
+        std::fs::read_to_string(&failed).unwrap(),
+        text,
+        "after --force"
+    );
     text
 }
 
