@@ -18,10 +18,7 @@ use std::time::{Duration, Instant};
 
 use ckcm::closed_loop::run_trial_with_table;
 use ckcm::nalgebra::Vector6;
-use ckcm::{
-    ControlInput, ControlOutput, ControlSettings, Hlcs, Integrator, Mechanism, Params,
-    ReferenceTable, State, Trajectory,
-};
+use ckcm::{ControlSettings, Hlcs, Integrator, Mechanism, Params, ReferenceTable, Trajectory};
 use criterion::{Criterion, criterion_group, criterion_main};
 use fmi2_import::{Fmu, Instance};
 use orchestrator::master::{Master, TrialSignals};
@@ -272,51 +269,6 @@ fn timed_trial(
 /// Trial ≥ 1 of the 15 s line through the orchestrator's `Master` and through the FMI-free
 /// loop. Both restore the memory trial 0 learned before every iteration, so every sample
 /// times the same (non-zero-memory) trial.
-/// The FMI-free floor: the line trial run by `ckcm` in process, with the plant, the nominal
-/// model, the trajectory and the controller's reference table of the FMUs' trial.
-struct Floor<'a> {
-    plant: &'a Mechanism,
-    nominal: &'a Mechanism,
-    trajectory: &'a Trajectory,
-    table: &'a ReferenceTable,
-}
-
-impl Floor<'_> {
-    /// One trial reading `read` and writing `write`, keeping what `Master` keeps for the
-    /// metrics in `signals` (time, reference − true length of each leg, position; true
-    /// lengths, as the floor has no sensor noise) and handing every sample to `record`.
-    fn trial(
-        &self,
-        read: &[Vector6<f64>],
-        write: &mut [Vector6<f64>],
-        signals: &mut TrialSignals,
-        mut record: impl FnMut(&State, &ControlInput, &ControlOutput),
-    ) {
-        let mut controller = Hlcs::new(*self.nominal, ControlSettings::default());
-        let mut integrator = Integrator::default();
-        signals.clear();
-        run_trial_with_table(
-            self.plant,
-            &mut integrator,
-            &mut controller,
-            self.trajectory,
-            H,
-            Some(self.table),
-            read,
-            write,
-            |n, state, input, out| {
-                let error = out.length_ref - input.length;
-                signals.error.push(error.into());
-                let p = state.pose.p_world;
-                signals.position.push([p.x, p.y, p.z]);
-                signals.time.push(n as f64 * H);
-                record(state, input, out);
-            },
-        )
-        .expect("the line trial runs");
-    }
-}
-
 fn line_trial(c: &mut Criterion) {
     let (scenario, fmus) = line_scenario(&fmu_path("HlcsController"), &fmu_path("CkcmPlant"));
     let mut master = Master::new(&scenario, fmus, false).expect("master");
@@ -329,36 +281,71 @@ fn line_trial(c: &mut Criterion) {
     // The controller FMU tabulates its reference terms once per parameter set and reuses
     // them in every trial; the floor does the same, so the ratio still measures FMI alone.
     let table = ReferenceTable::new(&nominal, &trajectory, 0.0, H);
-    // The recording floor produces what a recorded `Master` trial records at every sample:
-    // leg errors, forces, next memory, measured lengths and the pose (Euler angles), into
-    // storage allocated once, so the ratio measures the FMI layer and nothing else
-    // (BENCHMARKS.md, rounds 35 and 58).
-    let in_process = Floor {
-        plant: &plant,
-        nominal: &nominal,
-        trajectory: &trajectory,
-        table: &table,
-    };
+    // The floor produces what the orchestrator trial records at every sample: leg errors,
+    // forces, next memory, measured lengths and the pose (Euler angles), into storage
+    // allocated once, so the ratio measures the FMI layer and nothing else. It also keeps
+    // what `Master` keeps in every trial for the metrics, in the same `TrialSignals`: the
+    // time, reference − true length of each leg (true lengths: the floor has no sensor
+    // noise) and the position (BENCHMARKS.md, round 35).
     let mut floor_record: Vec<[f64; 30]> = Vec::with_capacity(steps);
     let mut floor_signals = master.new_signals();
     let mut floor =
         |read: &[Vector6<f64>], write: &mut [Vector6<f64>], floor_signals: &mut TrialSignals| {
+            let mut controller = Hlcs::new(nominal, ControlSettings::default());
+            let mut integrator = Integrator::default();
             floor_record.clear();
-            in_process.trial(read, write, floor_signals, |state, input, out| {
-                let mut row = [0.0; 30];
-                row[0..6].copy_from_slice(out.error.as_slice());
-                row[6..12].copy_from_slice(out.force.as_slice());
-                row[12..18].copy_from_slice(out.memory_next.as_slice());
-                row[18..24].copy_from_slice(input.length.as_slice());
-                row[24..30].copy_from_slice(&state.pose.to_xyz_euler());
-                floor_record.push(row);
-            })
+            floor_signals.clear();
+            run_trial_with_table(
+                &plant,
+                &mut integrator,
+                &mut controller,
+                &trajectory,
+                H,
+                Some(&table),
+                read,
+                write,
+                |n, state, input, out| {
+                    let error = out.length_ref - input.length;
+                    floor_signals.error.push(error.into());
+                    let p = state.pose.p_world;
+                    floor_signals.position.push([p.x, p.y, p.z]);
+                    floor_signals.time.push(n as f64 * H);
+                    let mut row = [0.0; 30];
+                    row[0..6].copy_from_slice(out.error.as_slice());
+                    row[6..12].copy_from_slice(out.force.as_slice());
+                    row[12..18].copy_from_slice(out.memory_next.as_slice());
+                    row[18..24].copy_from_slice(input.length.as_slice());
+                    row[24..30].copy_from_slice(&state.pose.to_xyz_euler());
+                    floor_record.push(row);
+                },
+            )
+            .expect("the line trial runs")
         };
     // The floor an unrecorded `Master` trial is judged against: the same trial keeping only
     // the metrics' signals, so neither side computes the pose's angles or stores a row.
     let floor_unrecorded =
         |read: &[Vector6<f64>], write: &mut [Vector6<f64>], floor_signals: &mut TrialSignals| {
-            in_process.trial(read, write, floor_signals, |_, _, _| {})
+            let mut controller = Hlcs::new(nominal, ControlSettings::default());
+            let mut integrator = Integrator::default();
+            floor_signals.clear();
+            run_trial_with_table(
+                &plant,
+                &mut integrator,
+                &mut controller,
+                &trajectory,
+                H,
+                Some(&table),
+                read,
+                write,
+                |n, state, input, out| {
+                    let error = out.length_ref - input.length;
+                    floor_signals.error.push(error.into());
+                    let p = state.pose.p_world;
+                    floor_signals.position.push([p.x, p.y, p.z]);
+                    floor_signals.time.push(n as f64 * H);
+                },
+            )
+            .expect("the line trial runs")
         };
     let mut floor_memory = vec![Vector6::zeros(); steps];
     let mut floor_next = vec![Vector6::zeros(); steps];
