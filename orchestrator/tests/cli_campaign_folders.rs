@@ -41,6 +41,16 @@ variables = ["osc.x", "osc.v"]
     path
 }
 
+/// In `dir`: the scenario, its campaign run whole (`whole`) and stopped after its first
+/// trial (`out`).
+fn whole_and_stopped(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let s = scenario(dir, "");
+    let (whole, out) = (dir.join("whole"), dir.join("out"));
+    assert!(run(&s, &whole, &[]).status.success());
+    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    (s, whole, out)
+}
+
 fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -277,12 +287,7 @@ fn a_corrupted_memory_file_is_refused_on_resume() {
 #[test]
 fn a_failed_write_names_the_trials_kept_and_the_resume_that_finishes_them() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = scenario(tmp.path(), "");
-    let whole = tmp.path().join("whole");
-    assert!(run(&s, &whole, &[]).status.success());
-
-    let out = tmp.path().join("out");
-    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let (s, whole, out) = whole_and_stopped(tmp.path());
     let blocker = out.join("memory.csv");
     std::fs::remove_file(&blocker).unwrap();
     std::fs::create_dir_all(blocker.join("in-the-way")).unwrap();
@@ -404,11 +409,7 @@ fn kill_at_every_file_operation_then_resume_is_byte_identical() {
 #[test]
 fn a_progress_file_claiming_no_trial_resumes_from_the_first() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = scenario(tmp.path(), "");
-    let whole = tmp.path().join("whole");
-    assert!(run(&s, &whole, &[]).status.success());
-    let out = tmp.path().join("out");
-    assert!(run(&s, &out, &["--stop-after", "1"]).status.success());
+    let (s, whole, out) = whole_and_stopped(tmp.path());
     let progress = out.join("progress.toml");
     let text = std::fs::read_to_string(&progress).unwrap();
     assert!(text.starts_with("completed = 1\n"), "{text}");
