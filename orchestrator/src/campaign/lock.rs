@@ -211,6 +211,27 @@ mod tests {
         drop(lock);
     }
 
+    /// The check that closes the race with a finishing holder: a lock taken on a file that
+    /// was removed and made again under the same name is on an orphan, and must not count.
+    #[cfg(unix)]
+    #[test]
+    fn a_file_replaced_under_its_name_is_not_the_same_file() {
+        let tmp = tempfile::tempdir().unwrap();
+        let path = tmp.path().join(LOCK_FILE);
+        fs::write(&path, "old").unwrap();
+        let opened = File::open(&path).unwrap();
+        assert!(same_file(&opened, &path));
+        // The old file stays open, so the new one cannot reuse its inode.
+        fs::remove_file(&path).unwrap();
+        fs::write(&path, "new").unwrap();
+        assert!(!same_file(&opened, &path));
+        // Another file on the same device is not it either, nor is a path that names nothing.
+        let other = File::open(tmp.path()).unwrap();
+        assert!(!same_file(&other, &path));
+        fs::remove_file(&path).unwrap();
+        assert!(!same_file(&opened, &path));
+    }
+
     /// The message names the machine as the kernel does, so that a user on a cluster can
     /// find the run that holds the folder.
     #[cfg(target_os = "linux")]
