@@ -263,6 +263,37 @@ fn a_forged_instance_tag_is_not_an_instance() {
     );
 }
 
+/// A misaligned array, or a length no array can have, is refused before a slice is made of
+/// it: either would be undefined behaviour in the glue, not a wrong answer.
+#[test]
+fn misaligned_arrays_and_impossible_lengths_are_errors() {
+    let refs = [vr::X; 2];
+    let mut values = [0.0_f64; 2];
+    let fmu = Fmu::initialized("misaligned");
+    let odd = refs.as_ptr().cast::<u8>().wrapping_add(1).cast::<u32>();
+    // SAFETY: a misaligned vr[] must be refused before any read.
+    let s = unsafe { abi::get_real::<Oscillator>(fmu.c, odd, 1, values.as_mut_ptr()) };
+    assert_eq!(status(s), Status::Error);
+    assert!(
+        fmu.log.contains("fmi2GetReal: argument vr[] is misaligned"),
+        "{:?}",
+        fmu.log.messages()
+    );
+
+    let fmu = Fmu::initialized("impossible");
+    let n = isize::MAX as usize / size_of::<u32>() + 1;
+    // SAFETY: a length beyond any array must be refused before any read.
+    let s = unsafe { abi::get_real::<Oscillator>(fmu.c, refs.as_ptr(), n, values.as_mut_ptr()) };
+    assert_eq!(status(s), Status::Error);
+    assert!(
+        fmu.log.contains(&format!(
+            "fmi2GetReal: argument vr[] has an impossible length {n}"
+        )),
+        "{:?}",
+        fmu.log.messages()
+    );
+}
+
 #[test]
 fn null_arrays_with_nvr_are_errors_and_nvr_zero_is_ok() {
     let fmu = Fmu::initialized("nulls");
