@@ -89,6 +89,13 @@ fn communication_point_must_match_the_fmu_time() {
         (Status::Ok, 0.01 + 5e-10 + 0.01)
     );
     assert_eq!(fmu.do_step(0.02 + 5e-10 + 2e-9, 0.01), Status::Error);
+
+    // The tolerance grows with |t|: at t = 1000 s it is 1e-6 s, so a master's rounding of
+    // a late communication point is not refused.
+    let fmu = Fmu::initialized_at("cp-late", 1000.0);
+    assert_eq!(fmu.do_step(1000.0, 0.01), Status::Ok);
+    assert_eq!(fmu.do_step(1000.01 + 5e-7, 0.01), Status::Ok);
+    assert_eq!(fmu.do_step(1000.02 + 5e-7 + 2e-6, 0.01), Status::Error);
 }
 
 #[test]
