@@ -81,6 +81,12 @@ fn communication_point_must_match_the_fmu_time() {
     );
 
     // Within the tolerance 1e-9·max(1, |t|): accepted, and the master's cp is used.
+    let fmu = Fmu::initialized("cp-edge");
+    assert_eq!(
+        fmu.do_step(1e-9, 0.01),
+        Status::Ok,
+        "exactly at the tolerance"
+    );
     let fmu = Fmu::initialized("cp-tol");
     assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
     assert_eq!(fmu.do_step(0.01 + 5e-10, 0.01), Status::Ok);
@@ -124,6 +130,11 @@ fn fixed_step_models_keep_the_first_step_size() {
         Status::Ok,
         "within 1e-9 relative"
     );
+    let t = fmu.last_successful_time().1;
+    // 1e-7 relative: beyond the tolerance, refused like any other step size.
+    assert_eq!(fmu.do_step(t, 0.01 + 1e-9), Status::Error);
+    let fmu = Fmu::initialized("fixed-2");
+    assert_eq!(fmu.do_step(0.0, 0.01), Status::Ok);
     let t = fmu.last_successful_time().1;
     assert_eq!(fmu.do_step(t, 0.02), Status::Error);
     assert!(

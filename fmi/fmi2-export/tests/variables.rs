@@ -300,6 +300,34 @@ fn initialization_errors_are_returned() {
     assert!(fmu.log.contains("fmi2GetReal: mass must be > 0, got 0"));
 }
 
+/// A declared `min` without a `max` still bounds what a setter accepts; a refused call
+/// changes nothing.
+#[test]
+fn a_lower_bound_alone_is_enforced() {
+    let fmu = Fmu::initialized("lower-bound");
+    assert_eq!(
+        fmu.set_real(&[vr::DAMPING], &[0.0]),
+        Status::Ok,
+        "the bound itself"
+    );
+    assert_eq!(
+        fmu.set_real(&[vr::FORCE, vr::DAMPING], &[3.0, -1.0]),
+        Status::Error
+    );
+    assert!(
+        fmu.log
+            .contains("fmi2SetReal: damping = -1 is outside its range [0, inf]"),
+        "{:?}",
+        fmu.log.messages()
+    );
+    assert_eq!(fmu.real(vr::DAMPING), 0.0);
+    assert_eq!(
+        fmu.real(vr::FORCE),
+        0.0,
+        "nothing of the refused call was written"
+    );
+}
+
 #[test]
 fn setup_experiment_validates_times() {
     let fmu = Fmu::new("setup");
@@ -311,6 +339,9 @@ fn setup_experiment_validates_times() {
     );
     let fmu = Fmu::new("setup-nan");
     assert_eq!(fmu.setup(f64::NAN, None), Status::Error);
+    // An experiment that ends where it starts is allowed (nothing to step).
+    let fmu = Fmu::new("setup-empty");
+    assert_eq!(fmu.setup(1.0, Some(1.0)), Status::Ok);
     let fmu = Fmu::new("setup-ok");
     assert_eq!(fmu.setup(2.5, Some(3.0)), Status::Ok);
     assert_eq!(fmu.enter_init(), Status::Ok);

@@ -138,13 +138,17 @@ impl Model for Oscillator {
             Causality::Parameter,
             Variability::Fixed,
         ),
-        var(
-            "damping",
-            vr::DAMPING,
-            VarType::Real,
-            Causality::Parameter,
-            Variability::Tunable,
-        ),
+        // A lower bound alone: the glue must check a bound that comes without its partner.
+        VarSpec {
+            min: Some(0.0),
+            ..var(
+                "damping",
+                vr::DAMPING,
+                VarType::Real,
+                Causality::Parameter,
+                Variability::Tunable,
+            )
+        },
         var(
             "stiffness",
             vr::STIFFNESS,
