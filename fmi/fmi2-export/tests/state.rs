@@ -188,6 +188,29 @@ fn serialized_state_continues_bit_identically_in_a_fresh_instance() {
     assert_eq!(c.free_state(&mut junk), Status::Ok);
 }
 
+/// The experiment's tolerance, which only the serialized form shows, travels with a state.
+#[test]
+fn a_serialized_state_keeps_the_experiments_tolerance() {
+    let a = Fmu::new("tol");
+    // SAFETY: our live instance.
+    let s = unsafe { abi::setup_experiment::<Oscillator>(a.c, 1, 1e-6, 0.0, 0, 0.0) };
+    assert_eq!(status(s), Status::Ok);
+    assert_eq!(a.enter_init(), Status::Ok);
+    assert_eq!(a.exit_init(), Status::Ok);
+    let mut snap = ptr::null_mut();
+    assert_eq!(a.get_state(&mut snap), Status::Ok);
+    let bytes = a.serialize(snap);
+    assert_eq!(a.free_state(&mut snap), Status::Ok);
+    let tolerance = 1e-6_f64.to_le_bytes();
+    assert!(bytes.windows(8).any(|w| w == tolerance));
+
+    let b = Fmu::new("tol-b");
+    let mut restored = ptr::null_mut();
+    assert_eq!(b.deserialize(&bytes, &mut restored), Status::Ok);
+    assert_eq!(b.serialize(restored), bytes, "the tolerance came back");
+    assert_eq!(b.free_state(&mut restored), Status::Ok);
+}
+
 /// The FMU time after `n` steps of 0.01 from 0 with cp = k·0.01.
 fn a_time_after(n: u32) -> f64 {
     f64::from(n - 1) * 0.01 + 0.01
