@@ -211,6 +211,50 @@ fn a_serialized_state_keeps_the_experiments_tolerance() {
     assert_eq!(b.free_state(&mut restored), Status::Ok);
 }
 
+/// What the glue keeps beside the model travels with a serialized state: a discarded
+/// step's request to terminate, and values set in Initialization Mode that the model has
+/// not yet been initialized with.
+#[test]
+fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
+    let round_trip = |fmu: &Fmu, name: &str| {
+        let mut snap = ptr::null_mut();
+        assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+        let bytes = fmu.serialize(snap);
+        assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+        let other = Fmu::new(name);
+        let mut restored = ptr::null_mut();
+        assert_eq!(other.deserialize(&bytes, &mut restored), Status::Ok);
+        assert_eq!(
+            other.serialize(restored),
+            bytes,
+            "{name}: the same state came back"
+        );
+        assert_eq!(other.set_state(restored), Status::Ok);
+        assert_eq!(other.free_state(&mut restored), Status::Ok);
+        other
+    };
+
+    let discarded = Fmu::initialized("discarded");
+    run(&discarded, 0, 3);
+    assert_eq!(
+        discarded.set_integer(&[vr::FAIL_MODE], &[fail::DISCARD]),
+        Status::Ok
+    );
+    assert_eq!(discarded.do_step(0.03, 0.01), Status::Discard);
+    assert_eq!(discarded.terminated_flag(), (Status::Ok, 1));
+    let restored = round_trip(&discarded, "discarded-b");
+    assert_eq!(restored.state(), Some(FmiState::StepFailed));
+    assert_eq!(restored.terminated_flag(), (Status::Ok, 1));
+
+    let set = Fmu::new("set-in-init");
+    assert_eq!(set.setup(0.0, None), Status::Ok);
+    assert_eq!(set.enter_init(), Status::Ok);
+    assert_eq!(set.set_real(&[vr::MASS], &[4.0]), Status::Ok);
+    let restored = round_trip(&set, "set-in-init-b");
+    assert_eq!(restored.state(), Some(FmiState::InitializationMode));
+    assert_eq!(restored.real(vr::OMEGA), set.real(vr::OMEGA));
+}
+
 /// The FMU time after `n` steps of 0.01 from 0 with cp = k·0.01.
 fn a_time_after(n: u32) -> f64 {
     f64::from(n - 1) * 0.01 + 0.01
