@@ -1402,6 +1402,34 @@ stop_time = 1.0
 
     /// Lanes as asked, but no more than trials are left and the memory limit has room for,
     /// and one when a memory update needs the whole trial.
+    /// A file that is already gone is no error of a clean-up, but one that cannot be removed
+    /// is, naming it: the clean-up must not go on as if it were gone.
+    #[test]
+    fn removing_what_is_gone_is_fine_and_what_cannot_be_removed_an_error() {
+        let tmp = tempfile::tempdir().unwrap();
+        let gone = tmp.path().join("gone.csv");
+        assert!(remove_file_if_present(&gone).is_ok());
+        assert!(remove_dir_if_present(&gone).is_ok());
+        // A folder where a file is expected: `remove_file` refuses it.
+        let folder = tmp.path().join("trial_000.csv");
+        fs::create_dir(&folder).unwrap();
+        let err = remove_file_if_present(&folder).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!("cannot remove {}", folder.display())),
+            "{err}"
+        );
+        assert!(folder.exists());
+        // A file where a folder is expected: `remove_dir_all` refuses it.
+        let file = tmp.path().join("memory");
+        fs::write(&file, b"x").unwrap();
+        let err = remove_dir_if_present(&file).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!("cannot remove {}", file.display())),
+            "{err}"
+        );
+        assert!(file.exists());
+    }
+
     #[test]
     fn lanes_are_as_many_as_trials_and_the_memory_limit_allow() {
         // 16 MiB of buffers and a 1 MiB time column per lane (as in the test above).

@@ -646,3 +646,75 @@ fn the_scenario_file_is_never_the_campaigns_own_copy() {
     let o = run(&out.join("scenario.toml"), &out, &["--resume"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// `memory.csv` lays the channels side by side: the learning memory carried as six
+/// one-element channels gives the very file the one six-element channel gives.
+#[test]
+fn memory_channels_side_by_side_make_the_same_memory_csv_as_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let campaign = |name: &str, memory: &str| {
+        let path = tmp.path().join(format!("{name}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                r#"step_size = 0.001
+stop_time = 0.2
+trials = 2
+
+[[fmu]]
+name = "controller"
+path = "{controller}"
+[fmu.parameters]
+trajectory = "line"
+duration = 0.2
+
+[[fmu]]
+name = "plant"
+path = "{plant}"
+
+[[connection]]
+from = "plant.length"
+to = "controller.length"
+
+[[connection]]
+from = "plant.velocity"
+to = "controller.velocity"
+
+[[connection]]
+from = "controller.force"
+to = "plant.force"
+{memory}
+[record]
+variables = ["controller.error"]
+trials = []
+"#,
+                controller = common::fmu_path_text("HlcsController"),
+                plant = common::fmu_path_text("CkcmPlant"),
+            ),
+        )
+        .unwrap();
+        let out = tmp.path().join(name);
+        let o = run(&path, &out, &[]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        std::fs::read_to_string(out.join("memory.csv")).unwrap()
+    };
+    let one = campaign(
+        "one",
+        "[[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n",
+    );
+    let six: String = (1..=6)
+        .map(|i| {
+            format!(
+                "[[memory]]\nfrom = \"controller.memory_next[{i}]\"\nto = \"controller.memory[{i}]\"\n"
+            )
+        })
+        .collect();
+    let six = campaign("six", &six);
+    let learned = one
+        .lines()
+        .skip(1)
+        .flat_map(|l| l.split(',').skip(1))
+        .any(|v| v.parse::<f64>().unwrap() != 0.0);
+    assert!(learned, "the memory learned nothing:\n{one}");
+    assert_eq!(six, one);
+}
