@@ -255,6 +255,33 @@ fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
     assert_eq!(restored.real(vr::OMEGA), set.real(vr::OMEGA));
 }
 
+/// States at the edges of what fmi2SetupExperiment and fmi2DoStep allow deserialize: an
+/// experiment that ends where it starts, and a time one tolerance past the stop time.
+#[test]
+fn states_at_the_edges_of_the_experiment_deserialize() {
+    let round_trips = |fmu: &Fmu| {
+        let mut snap = ptr::null_mut();
+        assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+        let bytes = fmu.serialize(snap);
+        assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+        let (s, msgs) = try_deserialize(&bytes);
+        assert_eq!(s, Status::Ok, "{msgs:?}");
+    };
+    let empty = Fmu::new("empty");
+    assert_eq!(empty.setup(1.0, Some(1.0)), Status::Ok);
+    assert_eq!(empty.enter_init(), Status::Ok);
+    assert_eq!(empty.exit_init(), Status::Ok);
+    round_trips(&empty);
+
+    let edge = Fmu::new("edge");
+    assert_eq!(edge.setup(0.0, Some(1.0)), Status::Ok);
+    assert_eq!(edge.enter_init(), Status::Ok);
+    assert_eq!(edge.exit_init(), Status::Ok);
+    // 1 + 1e-9: the stop time plus its tolerance, 1e-9·max(1, |t|).
+    assert_eq!(edge.do_step(0.0, 1.0 + 1e-9), Status::Ok);
+    round_trips(&edge);
+}
+
 /// The FMU time after `n` steps of 0.01 from 0 with cp = k·0.01.
 fn a_time_after(n: u32) -> f64 {
     f64::from(n - 1) * 0.01 + 0.01
