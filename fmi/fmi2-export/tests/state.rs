@@ -342,6 +342,32 @@ fn sealed(mut body: Vec<u8>) -> Vec<u8> {
     body
 }
 
+/// A state whose checksum is right but whose values break a declared range (written by
+/// hand, or by another build) is refused naming the value: no set call checked it.
+#[test]
+fn a_sealed_state_holding_a_value_out_of_its_range_is_refused() {
+    let fmu = Fmu::initialized("ranged");
+    let marker = 0.123_456_789_f64;
+    assert_eq!(fmu.set_real(&[vr::DAMPING], &[marker]), Status::Ok);
+    let mut snap = ptr::null_mut();
+    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+    let good = fmu.serialize(snap);
+    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+    let mut body = good[..good.len() - 4].to_vec();
+    let at = body
+        .windows(8)
+        .position(|w| w == marker.to_le_bytes())
+        .expect("the damping's bytes are in the state");
+    body[at..at + 8].copy_from_slice(&(-1.0_f64).to_le_bytes());
+    let (s, msgs) = try_deserialize(&sealed(body));
+    assert_eq!(s, Status::Error);
+    assert!(
+        msgs.iter()
+            .any(|m| m.contains("the state holds damping = -1 is outside its range [0, inf]")),
+        "{msgs:?}"
+    );
+}
+
 #[test]
 fn corrupt_buffers_are_rejected_with_a_reason() {
     let good = good_bytes();

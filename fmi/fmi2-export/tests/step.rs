@@ -5,8 +5,9 @@
 #[path = "support/mod.rs"]
 mod export_support;
 
-use export_support::{Fmu, fail, vr};
+use export_support::{Fmu, Other, fail, instantiate_quiet, status, vr};
 use fmi2_export::FmiState;
+use fmi2_export::abi;
 use fmi2_sys::Status;
 
 #[test]
@@ -262,4 +263,32 @@ fn discarded_step_reports_terminated_and_last_successful_time() {
     assert_eq!(fmu2.do_step(0.0, 0.01), Status::Discard);
     assert_eq!(fmu2.terminate(), Status::Ok);
     assert_eq!(fmu2.state(), Some(FmiState::Terminated));
+}
+
+/// A model with nothing to say about its steps (the trait's default remark) steps with
+/// fmi2OK: a warning on every step would bury the real ones.
+#[test]
+fn a_model_without_remarks_steps_with_ok() {
+    let c = instantiate_quiet::<Other>("quiet-steps");
+    assert!(!c.is_null());
+    // SAFETY: `c` is a live `Other` instance until it is freed at the end.
+    unsafe {
+        assert_eq!(
+            status(abi::setup_experiment::<Other>(c, 0, 0.0, 0.0, 0, 0.0)),
+            Status::Ok
+        );
+        assert_eq!(
+            status(abi::enter_initialization_mode::<Other>(c)),
+            Status::Ok
+        );
+        assert_eq!(
+            status(abi::exit_initialization_mode::<Other>(c)),
+            Status::Ok
+        );
+        for n in 0..3 {
+            let t = f64::from(n) * 0.1;
+            assert_eq!(status(abi::do_step::<Other>(c, t, 0.1, 1)), Status::Ok);
+        }
+        abi::free_instance::<Other>(c);
+    }
 }

@@ -379,6 +379,25 @@ mod tests {
         }
     }
 
+    /// The bounds themselves are inside the range; one double beyond either is not.
+    #[test]
+    fn a_range_includes_its_bounds() {
+        let spec = VarSpec {
+            name: "kd",
+            value_reference: 0,
+            var_type: VarType::Real,
+            causality: Causality::Parameter,
+            variability: Variability::Tunable,
+            min: Some(-2.0),
+            max: Some(3.0),
+        };
+        assert_eq!(spec.check_range(-2.0), Ok(()));
+        assert_eq!(spec.check_range(3.0), Ok(()));
+        assert!(spec.check_range(f64::next_down(-2.0)).is_err());
+        assert!(spec.check_range(f64::next_up(3.0)).is_err());
+        assert!(spec.check_range(f64::NAN).is_err());
+    }
+
     /// A range message names an absurd value in a few characters.
     #[test]
     fn out_of_range_message_stays_short() {
