@@ -66,6 +66,31 @@ mod tests {
         assert!(check_complete(one_short).is_err());
     }
 
+    /// A file whose headers all lie at its start (a PE file, or an ELF file without a
+    /// section table) still parses when cut short: the segments it names must then be found
+    /// past its end.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_cut_file_whose_headers_survive_is_refused_by_its_segments() {
+        let mut data = own_binary();
+        // ELF64: e_shoff at 0x28, e_shnum at 0x3c, e_shstrndx at 0x3e.
+        data[0x28..0x30].fill(0);
+        data[0x3c..0x40].fill(0);
+        check_complete(&data).expect("the file without its section table is whole");
+        // One byte short of the last byte a segment loads (debug information, which no
+        // segment holds, may follow it).
+        let end = object::File::parse(&*data)
+            .unwrap()
+            .segments()
+            .map(|s| s.file_range())
+            .map(|(offset, size)| offset + size)
+            .max()
+            .unwrap();
+        let cut = &data[..usize::try_from(end).unwrap() - 1];
+        let err = check_complete(cut).expect_err("a truncated binary passed");
+        assert!(err.starts_with("the file is truncated: segment "), "{err}");
+    }
+
     #[test]
     fn other_formats_are_left_to_the_loader() {
         assert_eq!(check_complete(b"not an ELF file"), Ok(()));

@@ -221,3 +221,37 @@ fn messages_suffix(messages: &[LogRecord]) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Status;
+
+    fn record(message: &str) -> LogRecord {
+        LogRecord {
+            status: Status::Error,
+            category: "logStatusError".into(),
+            message: message.into(),
+        }
+    }
+
+    /// A failed call quotes what the FMU logged, each message apart.
+    #[test]
+    fn a_failed_call_lists_the_fmus_messages_apart() {
+        let call = |messages| ImportError::Call {
+            function: "fmi2DoStep",
+            instance: "plant".into(),
+            status: Status::Error,
+            messages,
+        };
+        assert_eq!(
+            call(vec![record("first"), record("second")]).to_string(),
+            "fmi2DoStep on instance 'plant' returned fmi2Error: [fmi2Error] logStatusError: \
+             first; [fmi2Error] logStatusError: second"
+        );
+        assert_eq!(
+            call(Vec::new()).to_string(),
+            "fmi2DoStep on instance 'plant' returned fmi2Error (the FMU logged nothing)"
+        );
+    }
+}

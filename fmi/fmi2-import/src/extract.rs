@@ -143,6 +143,34 @@ mod tests {
         assert!(mine.exists() && other.exists());
     }
 
+    /// Another process's folder is reaped only once that process has exited: a second
+    /// master running beside this one keeps its FMUs.
+    #[cfg(unix)]
+    #[test]
+    fn a_running_process_is_not_gone() {
+        let mut exited = std::process::Command::new("true").spawn().unwrap();
+        let dead = exited.id();
+        exited.wait().unwrap();
+        let mut running = std::process::Command::new("sleep")
+            .arg("30")
+            .spawn()
+            .unwrap();
+        // The exited one first: its check leaves ESRCH in errno, which the running one's
+        // successful check must not read.
+        let gone = (process_is_gone(dead), process_is_gone(running.id()));
+        let temp = tempfile::tempdir().unwrap();
+        let theirs = temp
+            .path()
+            .join(format!("{EXTRACTION_PREFIX}{}-abc", running.id()));
+        std::fs::create_dir(&theirs).unwrap();
+        let reaped = reap_stale_extraction_dirs(temp.path());
+        running.kill().unwrap();
+        running.wait().unwrap();
+        assert_eq!(gone, (true, false));
+        assert_eq!(reaped, 0);
+        assert!(theirs.exists());
+    }
+
     #[test]
     fn live_folders_are_registered_until_dropped() {
         let dir = ExtractionDir::new().unwrap();

@@ -29,6 +29,7 @@ fn fmu_with(dir: &Path, xml: &str) -> PathBuf {
 #[test]
 fn missing_file_is_named() {
     let err = open_err(Path::new("/nonexistent/Missing.fmu"));
+    assert!(!err.is_binary_problem(), "no FMU at all");
     assert!(matches!(err, ImportError::NotFound { .. }), "{err:?}");
     assert_eq!(err.to_string(), "/nonexistent/Missing.fmu: no such file");
 }
@@ -278,6 +279,7 @@ fn missing_binary_names_the_expected_path() {
     let dir = temp();
     let err = open_err(&fmu_with(dir.path(), VALID));
     assert!(matches!(err, ImportError::MissingBinary { .. }), "{err:?}");
+    assert!(err.is_binary_problem(), "a sound FMU that cannot run here");
     let expected = format!("binaries/{PLATFORM}/MiniPlatform.{SHARED_LIBRARY_EXTENSION}");
     assert!(
         err.to_string().ends_with(&format!(
@@ -326,6 +328,7 @@ fn binary_that_is_not_a_library_fails_to_load() {
     write_fmu(&path, VALID, Some(&fake), &[("resources/data.txt", b"x")]).unwrap();
     let err = open_err(&path);
     assert!(matches!(err, ImportError::Load { .. }), "{err:?}");
+    assert!(err.is_binary_problem());
     // The .fmu, the binary inside it and the loader's own reason; no temporary path.
     let text = err.to_string();
     let binary = format!("binaries/{PLATFORM}/MiniPlatform.so");
