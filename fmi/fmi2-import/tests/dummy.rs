@@ -408,3 +408,17 @@ fn instances_outlive_the_fmu_handle() {
         "the temporary directory is removed with the last user"
     );
 }
+
+/// Dropping an instance frees it in the FMU (fmi2FreeInstance): a sweep makes thousands,
+/// and each would otherwise stay allocated inside the FMU.
+#[test]
+fn dropping_an_instance_frees_it_in_the_fmu() {
+    let (dir, fmu) = open();
+    let marker = dir.path().join("freed");
+    let inst = fmu
+        .instantiate(&format!("mark:{}", marker.display()), false)
+        .unwrap();
+    assert!(!marker.exists());
+    drop(inst);
+    assert!(marker.exists(), "fmi2FreeInstance was not called");
+}
