@@ -270,6 +270,8 @@ fn warnings_are_ok_and_logged() {
 fn errors_name_function_instance_status_and_messages() {
     let (_dir, fmu) = open();
     let mut inst = fmu.instantiate("controller", false).unwrap();
+    // A warning logged by an earlier call stays in the log, out of the next call's error.
+    assert_eq!(inst.set_real(&[1], &[f64::NAN]).unwrap(), Status::Warning);
     let err = inst.do_step(0.5, -0.001, true).unwrap_err();
     match &err {
         ImportError::Call {
@@ -421,4 +423,43 @@ fn dropping_an_instance_frees_it_in_the_fmu() {
     assert!(!marker.exists());
     drop(inst);
     assert!(marker.exists(), "fmi2FreeInstance was not called");
+}
+
+/// The log keeps the last `MAX_LOG_RECORDS` messages and says how many older ones it let go.
+#[test]
+fn a_full_log_says_how_many_messages_it_dropped() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("chatty", false).unwrap();
+    inst.take_log();
+    for _ in 0..fmi2_import::MAX_LOG_RECORDS + 5 {
+        assert_eq!(inst.set_real(&[1], &[f64::NAN]).unwrap(), Status::Warning);
+    }
+    let log = inst.take_log();
+    assert_eq!(log.len(), fmi2_import::MAX_LOG_RECORDS + 1);
+    assert_eq!(
+        log[0].message,
+        format!(
+            "5 earlier log messages were dropped (limit {})",
+            fmi2_import::MAX_LOG_RECORDS
+        )
+    );
+}
+
+/// Status queries the FMU refuses (fmi2Discard: it has no such status) are errors, not
+/// an empty answer.
+#[test]
+fn refused_status_queries_are_errors() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    let discarded = |r: Result<String, ImportError>| {
+        matches!(
+            r,
+            Err(ImportError::Call {
+                status: Status::Discard,
+                ..
+            })
+        )
+    };
+    assert!(discarded(inst.pending_status()));
+    assert!(discarded(inst.integer_status(0).map(|v| v.to_string())));
 }
