@@ -463,3 +463,17 @@ fn refused_status_queries_are_errors() {
     assert!(discarded(inst.pending_status()));
     assert!(discarded(inst.integer_status(0).map(|v| v.to_string())));
 }
+
+/// fmi2Terminated as the FMU reports it: this one asks to end from t = 100 s on.
+#[test]
+fn the_fmus_request_to_terminate_is_read() {
+    let (_dir, fmu) = open();
+    let mut inst = fmu.instantiate("plant", false).unwrap();
+    inst.setup_experiment(None, 0.0, None).unwrap();
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode().unwrap();
+    inst.do_step(0.0, 50.0, true).unwrap();
+    assert!(!inst.is_terminated().unwrap());
+    inst.do_step(50.0, 50.0, true).unwrap();
+    assert!(inst.is_terminated().unwrap());
+}
