@@ -652,7 +652,17 @@ fn the_scenario_file_is_never_the_campaigns_own_copy() {
 #[test]
 fn memory_channels_side_by_side_make_the_same_memory_csv_as_one() {
     let tmp = tempfile::tempdir().unwrap();
-    let campaign = |name: &str, memory: &str| {
+    // The closed loop's one channel, and the same memory as six.
+    let one_channel = "[[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n";
+    assert!(common::CLOSED_LOOP.contains(one_channel));
+    let six_channels: String = (1..=6)
+        .map(|i| {
+            format!(
+                "[[memory]]\nfrom = \"controller.memory_next[{i}]\"\nto = \"controller.memory[{i}]\"\n"
+            )
+        })
+        .collect();
+    let campaign = |name: &str, coupling: &str| {
         let path = tmp.path().join(format!("{name}.toml"));
         std::fs::write(
             &path,
@@ -671,19 +681,7 @@ duration = 0.2
 [[fmu]]
 name = "plant"
 path = "{plant}"
-
-[[connection]]
-from = "plant.length"
-to = "controller.length"
-
-[[connection]]
-from = "plant.velocity"
-to = "controller.velocity"
-
-[[connection]]
-from = "controller.force"
-to = "plant.force"
-{memory}
+{coupling}
 [record]
 variables = ["controller.error"]
 trials = []
@@ -698,18 +696,11 @@ trials = []
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         std::fs::read_to_string(out.join("memory.csv")).unwrap()
     };
-    let one = campaign(
-        "one",
-        "[[memory]]\nfrom = \"controller.memory_next\"\nto = \"controller.memory\"\n",
+    let one = campaign("one", common::CLOSED_LOOP);
+    let six = campaign(
+        "six",
+        &common::CLOSED_LOOP.replace(one_channel, &six_channels),
     );
-    let six: String = (1..=6)
-        .map(|i| {
-            format!(
-                "[[memory]]\nfrom = \"controller.memory_next[{i}]\"\nto = \"controller.memory[{i}]\"\n"
-            )
-        })
-        .collect();
-    let six = campaign("six", &six);
     let learned = one
         .lines()
         .skip(1)
