@@ -175,3 +175,34 @@ fn a_resume_in_another_format_is_refused() {
         ["trial_000.csv", "trial_001.csv"]
     );
 }
+
+/// Only the trials a resume keeps bind its format: a file of the trial that was running
+/// when the campaign stopped (renamed into place before the progress was saved) is a
+/// leftover the resume replaces, whatever its format.
+#[test]
+fn a_leftover_of_the_interrupted_trial_does_not_bind_the_format() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = scenario(tmp.path(), "trials = [1]");
+    let out = tmp.path().join("out");
+    let run = |args: &[&str]| {
+        orchestrator()
+            .arg("run")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&["--trials", "1"]).status.success());
+    std::fs::create_dir_all(out.join("trials")).unwrap();
+    std::fs::write(out.join("trials/trial_001.csv"), "time\n0\n").unwrap();
+    let o = run(&["--resume", "--record-format", "parquet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(out.join("trials"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["trial_001.parquet"]);
+}
