@@ -610,6 +610,11 @@ mod tests {
             windows_file_uri(r"\\?\UNC\server\share\x"),
             "file://server/share/x/"
         );
+        // Only a letter and a colon make a drive.
+        for path in [r"\srv\x", r"ab\c", r"1:\x"] {
+            let uri = windows_file_uri(path);
+            assert!(!uri["file:".len()..].contains(':'), "{path} became {uri}");
+        }
     }
 
     #[cfg(unix)]

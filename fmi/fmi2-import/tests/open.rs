@@ -47,7 +47,9 @@ fn not_a_zip_says_what_the_file_is() {
     dll.resize(4096, 0xff);
     // A text longer than the bytes read, cut inside a two-byte character at byte 1024.
     let long_text = format!("{}é and more", "x".repeat(1023));
-    let cases: [(&str, Vec<u8>, &str); 9] = [
+    let mut macho = vec![0xcf, 0xfa, 0xed, 0xfe, 7, 0, 0, 1];
+    macho.resize(4096, 0);
+    let cases: [(&str, Vec<u8>, &str); 11] = [
         ("Empty.fmu", Vec::new(), "the file is empty"),
         (
             "lib.so",
@@ -79,6 +81,14 @@ fn not_a_zip_says_what_the_file_is() {
         (
             "Noise.fmu",
             vec![0x00, 0x9c, 0xff, 0x13, 0x37, 0x00, 0xfe],
+            "the zip reader says: ",
+        ),
+        ("lib.dylib", macho, "it is a macOS library or program; "),
+        // Text at first, then a byte no UTF-8 text has, well inside the bytes read: not
+        // a text file.
+        (
+            "Mixed.fmu",
+            b"looks like text\xff\xfe\x01 but is not".to_vec(),
             "the zip reader says: ",
         ),
     ];
