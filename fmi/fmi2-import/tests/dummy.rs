@@ -477,3 +477,26 @@ fn the_fmus_request_to_terminate_is_read() {
     inst.do_step(50.0, 50.0, true).unwrap();
     assert!(inst.is_terminated().unwrap());
 }
+
+/// A binary whose fmi2GetVersion is not "2.0" is refused on open, naming what it said: it
+/// is another FMI version's, and its functions take other arguments.
+#[test]
+fn a_binary_of_another_fmi_version_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let library = dir.path().join("MiniPlatform.so");
+    import_support::compile(&library, &[r#"-DDUMMY_VERSION="1.0""#]);
+    let path = dir.path().join("MiniPlatform.fmu");
+    fmu_build::write_fmu(
+        &path,
+        import_support::MODEL_DESCRIPTION,
+        Some(&library),
+        &[],
+    )
+    .unwrap();
+    let err = Fmu::open(&path).unwrap_err();
+    assert!(
+        matches!(&err, ImportError::Version { function: "fmi2GetVersion", found, .. } if found == "1.0"),
+        "{err:?}"
+    );
+    assert!(err.is_binary_problem());
+}

@@ -13,20 +13,27 @@ pub const MODEL_DESCRIPTION: &str = include_str!("../../../fmi2-md/tests/fixture
 pub fn dummy_library() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
     LIB.get_or_init(|| {
-        let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/dummy_fmu.c");
         let out = Path::new(env!("CARGO_TARGET_TMPDIR"))
             .join(format!("fmi2-dummy-{}.so", std::process::id()));
-        let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-        let status = Command::new(&cc)
-            .args(["-shared", "-fPIC", "-fvisibility=hidden", "-Wall", "-o"])
-            .arg(&out)
-            .arg(&source)
-            .arg("-lm")
-            .status()
-            .unwrap_or_else(|e| panic!("cannot run the C compiler '{cc}': {e}"));
-        assert!(status.success(), "compiling {} failed", source.display());
+        compile(&out, &[]);
         out
     })
+}
+
+/// The dummy FMU's shared library compiled into `out` with the extra compiler arguments
+/// `defines` (e.g. `-DDUMMY_VERSION="1.0"`).
+pub fn compile(out: &Path, defines: &[&str]) {
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/dummy_fmu.c");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let status = Command::new(&cc)
+        .args(["-shared", "-fPIC", "-fvisibility=hidden", "-Wall", "-o"])
+        .arg(out)
+        .args(defines)
+        .arg(&source)
+        .arg("-lm")
+        .status()
+        .unwrap_or_else(|e| panic!("cannot run the C compiler '{cc}': {e}"));
+    assert!(status.success(), "compiling {} failed", source.display());
 }
 
 /// Writes `dir/MiniPlatform.fmu` with the dummy binary and the given description.
