@@ -197,18 +197,35 @@ fn a_serialized_state_keeps_the_experiments_tolerance() {
     assert_eq!(status(s), Status::Ok);
     assert_eq!(a.enter_init(), Status::Ok);
     assert_eq!(a.exit_init(), Status::Ok);
-    let mut snap = ptr::null_mut();
-    assert_eq!(a.get_state(&mut snap), Status::Ok);
-    let bytes = a.serialize(snap);
-    assert_eq!(a.free_state(&mut snap), Status::Ok);
+    let bytes = state_bytes(&a);
     let tolerance = 1e-6_f64.to_le_bytes();
     assert!(bytes.windows(8).any(|w| w == tolerance));
+    restore_in_new(&bytes, "tol-b");
+}
 
-    let b = Fmu::new("tol-b");
-    let mut restored = ptr::null_mut();
-    assert_eq!(b.deserialize(&bytes, &mut restored), Status::Ok);
-    assert_eq!(b.serialize(restored), bytes, "the tolerance came back");
-    assert_eq!(b.free_state(&mut restored), Status::Ok);
+/// The current state of `fmu`, serialized (the snapshot taken for it is freed).
+fn state_bytes(fmu: &Fmu) -> Vec<u8> {
+    let mut snap = ptr::null_mut();
+    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
+    let bytes = fmu.serialize(snap);
+    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+    bytes
+}
+
+/// A new instance `name` set to the serialized state `bytes`, after checking that the
+/// deserialized state serializes to the same bytes (nothing was lost on the way).
+fn restore_in_new(bytes: &[u8], name: &str) -> Fmu {
+    let fmu = Fmu::new(name);
+    let mut snap = ptr::null_mut();
+    assert_eq!(fmu.deserialize(bytes, &mut snap), Status::Ok);
+    assert_eq!(
+        fmu.serialize(snap),
+        bytes,
+        "{name}: the same state came back"
+    );
+    assert_eq!(fmu.set_state(snap), Status::Ok);
+    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+    fmu
 }
 
 /// What the glue keeps beside the model travels with a serialized state: a discarded
@@ -216,24 +233,6 @@ fn a_serialized_state_keeps_the_experiments_tolerance() {
 /// not yet been initialized with.
 #[test]
 fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
-    let round_trip = |fmu: &Fmu, name: &str| {
-        let mut snap = ptr::null_mut();
-        assert_eq!(fmu.get_state(&mut snap), Status::Ok);
-        let bytes = fmu.serialize(snap);
-        assert_eq!(fmu.free_state(&mut snap), Status::Ok);
-        let other = Fmu::new(name);
-        let mut restored = ptr::null_mut();
-        assert_eq!(other.deserialize(&bytes, &mut restored), Status::Ok);
-        assert_eq!(
-            other.serialize(restored),
-            bytes,
-            "{name}: the same state came back"
-        );
-        assert_eq!(other.set_state(restored), Status::Ok);
-        assert_eq!(other.free_state(&mut restored), Status::Ok);
-        other
-    };
-
     let discarded = Fmu::initialized("discarded");
     run(&discarded, 0, 3);
     assert_eq!(
@@ -242,7 +241,7 @@ fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
     );
     assert_eq!(discarded.do_step(0.03, 0.01), Status::Discard);
     assert_eq!(discarded.terminated_flag(), (Status::Ok, 1));
-    let restored = round_trip(&discarded, "discarded-b");
+    let restored = restore_in_new(&state_bytes(&discarded), "discarded-b");
     assert_eq!(restored.state(), Some(FmiState::StepFailed));
     assert_eq!(restored.terminated_flag(), (Status::Ok, 1));
 
@@ -250,7 +249,7 @@ fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
     assert_eq!(set.setup(0.0, None), Status::Ok);
     assert_eq!(set.enter_init(), Status::Ok);
     assert_eq!(set.set_real(&[vr::MASS], &[4.0]), Status::Ok);
-    let restored = round_trip(&set, "set-in-init-b");
+    let restored = restore_in_new(&state_bytes(&set), "set-in-init-b");
     assert_eq!(restored.state(), Some(FmiState::InitializationMode));
     assert_eq!(restored.real(vr::OMEGA), set.real(vr::OMEGA));
 }
@@ -260,11 +259,7 @@ fn a_serialized_state_keeps_the_termination_request_and_unapplied_values() {
 #[test]
 fn states_at_the_edges_of_the_experiment_deserialize() {
     let round_trips = |fmu: &Fmu| {
-        let mut snap = ptr::null_mut();
-        assert_eq!(fmu.get_state(&mut snap), Status::Ok);
-        let bytes = fmu.serialize(snap);
-        assert_eq!(fmu.free_state(&mut snap), Status::Ok);
-        let (s, msgs) = try_deserialize(&bytes);
+        let (s, msgs) = try_deserialize(&state_bytes(fmu));
         assert_eq!(s, Status::Ok, "{msgs:?}");
     };
     let empty = Fmu::new("empty");
@@ -327,11 +322,7 @@ fn try_deserialize(bytes: &[u8]) -> (Status, Vec<String>) {
 fn good_bytes() -> Vec<u8> {
     let fmu = Fmu::initialized("good");
     run(&fmu, 0, 3);
-    let mut snap = ptr::null_mut();
-    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
-    let bytes = fmu.serialize(snap);
-    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
-    bytes
+    state_bytes(&fmu)
 }
 
 /// `body` (a serialized state without its checksum) with a fresh CRC-32 appended, so a
@@ -349,10 +340,7 @@ fn a_sealed_state_holding_a_value_out_of_its_range_is_refused() {
     let fmu = Fmu::initialized("ranged");
     let marker = 0.123_456_789_f64;
     assert_eq!(fmu.set_real(&[vr::DAMPING], &[marker]), Status::Ok);
-    let mut snap = ptr::null_mut();
-    assert_eq!(fmu.get_state(&mut snap), Status::Ok);
-    let good = fmu.serialize(snap);
-    assert_eq!(fmu.free_state(&mut snap), Status::Ok);
+    let good = state_bytes(&fmu);
     let mut body = good[..good.len() - 4].to_vec();
     let at = body
         .windows(8)
