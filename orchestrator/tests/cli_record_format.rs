@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{CLOSED_LOOP, fmu_path_text, orchestrator, read_csv};
+use common::{CLOSED_LOOP, fmu_path_text, orchestrator, read_csv, run_scenario, tree};
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
 
@@ -139,16 +139,7 @@ fn a_resume_in_another_format_is_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let path = scenario(tmp.path(), "");
     let out = tmp.path().join("out");
-    let run = |args: &[&str]| {
-        orchestrator()
-            .arg("run")
-            .arg(&path)
-            .arg("--out")
-            .arg(&out)
-            .args(args)
-            .output()
-            .unwrap()
-    };
+    let run = |args: &[&str]| run_scenario(&path, &out, args);
     assert!(run(&["--trials", "1"]).status.success());
     let o = run(&["--resume", "--record-format", "parquet"]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -160,20 +151,17 @@ fn a_resume_in_another_format_is_refused() {
         ),
         "{err}"
     );
-    let names = |dir: &Path| {
-        let mut v: Vec<String> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        v.sort();
-        v
-    };
-    assert_eq!(names(&out.join("trials")), ["trial_000.csv"]);
+    assert_eq!(trial_files(&out), ["trial_000.csv"]);
     assert!(run(&["--resume"]).status.success());
-    assert_eq!(
-        names(&out.join("trials")),
-        ["trial_000.csv", "trial_001.csv"]
-    );
+    assert_eq!(trial_files(&out), ["trial_000.csv", "trial_001.csv"]);
+}
+
+/// The files in the campaign folder `out`'s `trials`, sorted.
+fn trial_files(out: &Path) -> Vec<String> {
+    tree(&out.join("trials"))
+        .into_keys()
+        .map(|p| p.display().to_string())
+        .collect()
 }
 
 /// Only the trials a resume keeps bind its format: a file of the trial that was running
@@ -184,25 +172,11 @@ fn a_leftover_of_the_interrupted_trial_does_not_bind_the_format() {
     let tmp = tempfile::tempdir().unwrap();
     let path = scenario(tmp.path(), "trials = [1]");
     let out = tmp.path().join("out");
-    let run = |args: &[&str]| {
-        orchestrator()
-            .arg("run")
-            .arg(&path)
-            .arg("--out")
-            .arg(&out)
-            .args(args)
-            .output()
-            .unwrap()
-    };
+    let run = |args: &[&str]| run_scenario(&path, &out, args);
     assert!(run(&["--trials", "1"]).status.success());
     std::fs::create_dir_all(out.join("trials")).unwrap();
     std::fs::write(out.join("trials/trial_001.csv"), "time\n0\n").unwrap();
     let o = run(&["--resume", "--record-format", "parquet"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut names: Vec<String> = std::fs::read_dir(out.join("trials"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    assert_eq!(names, ["trial_001.parquet"]);
+    assert_eq!(trial_files(&out), ["trial_001.parquet"]);
 }
