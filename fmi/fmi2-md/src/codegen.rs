@@ -253,6 +253,9 @@ mod tests {
         assert_eq!(const_name("der(x)"), "DER_X");
         assert_eq!(const_name("m[2,3]"), "M_2_3");
         assert_eq!(const_name("3d"), "V_3D");
+        // Runs of separators make one underscore, and none leads.
+        assert_eq!(const_name("m[2, 3]"), "M_2_3");
+        assert_eq!(const_name("_x"), "X");
     }
 
     #[test]

@@ -113,6 +113,16 @@ mod tests {
             "2026-11-23T12:00:00.125+01:00",
             "2024-02-29T23:59:59-05:30",
             "2026-01-01T24:00:00Z",
+            "2026-01-01T24:00:00.000Z",
+            // Four-digit years may start with zeros, longer ones may not.
+            "0026-01-01T00:00:00Z",
+            "12026-01-01T00:00:00Z",
+            "-0044-03-15T12:00:00Z",
+            // The leap-year rule's century exception to the exception.
+            "2000-02-29T00:00:00Z",
+            "2026-12-31T23:59:59.999Z",
+            "2026-11-23T12:00:00+14:00",
+            "2026-11-23T12:00:00-13:59",
         ] {
             assert!(is_xs_date_time(ok), "{ok}");
         }
@@ -134,6 +144,28 @@ mod tests {
             "2026-11-23T12:00:00.Z",
             "0000-01-01T00:00:00Z",
             "yesterday",
+            // Years: too short, a leading zero beyond four digits, a sign `parse` would take.
+            "026-01-01T00:00:00Z",
+            "02026-01-01T00:00:00Z",
+            "+2026-01-01T00:00:00Z",
+            // One digit where two belong, in each field.
+            "2026-1-01T00:00:00Z",
+            "2026-01-1T00:00:00Z",
+            "2026-01-01T1:00:00Z",
+            "2026-01-01T01:0:00Z",
+            "2026-01-01T01:00:0Z",
+            "2026-11-23T12:00:00.5x",
+            "2026-11-23T12:00:60Z",
+            "2026-11-23T24:00:00.5Z",
+            // Month lengths, and 2100 is no leap year.
+            "2026-04-31T00:00:00Z",
+            "2026-11-31T00:00:00Z",
+            "2100-02-29T00:00:00Z",
+            // Zones reach +14:00 and no further; minutes stay below 60.
+            "2026-11-23T12:00:00+14:30",
+            "2026-11-23T12:00:00+15:00",
+            "2026-11-23T12:00:00+05:60",
+            "2026-11-23T12:00:00+0530",
         ] {
             assert!(!is_xs_date_time(bad), "{bad}");
         }

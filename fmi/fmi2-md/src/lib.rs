@@ -708,6 +708,7 @@ mod tests {
             ("a\u{2066}b\u{2069}", "a\\u{2066}b\\u{2069}"),
             ("a\u{200f}b", "a\\u{200f}b"),
             ("a\\u{1b}", "a\\\\u{1b}"),
+            ("\\", "\\\\"),
         ] {
             assert_eq!(printable(text), shown, "{text:?}");
         }

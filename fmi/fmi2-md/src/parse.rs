@@ -107,9 +107,19 @@ impl Ctx<'_, '_> {
 
     fn real(&self, value: &Option<String>, attribute: &str) -> Result<Option<f64>, MdError> {
         match value.as_deref().map(str::trim) {
-            // xs:double spells infinities this way; Rust's parser does not accept them.
+            // xs:double spells its special values `INF`, `-INF` and `NaN` and no other way;
+            // Rust's parser also takes `inf`, `infinity` and `nan` in any case, which the
+            // schema refuses. Apart from those three, only an exponent's `e` is a letter.
             Some("INF") => Ok(Some(f64::INFINITY)),
             Some("-INF") => Ok(Some(f64::NEG_INFINITY)),
+            Some(text)
+                if text != "NaN"
+                    && text
+                        .bytes()
+                        .any(|b| b.is_ascii_alphabetic() && !matches!(b, b'e' | b'E')) =>
+            {
+                Err(self.invalid(attribute, text, "a real number"))
+            }
             _ => self.number(value, attribute, "a real number"),
         }
     }

@@ -279,3 +279,16 @@ pub(super) fn scan(xml: &str) -> Result<Scan<'_>, MdError> {
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Positions;
+
+    /// A newline ends its own line; an offset past the end is on the last line.
+    #[test]
+    fn a_newline_belongs_to_the_line_it_ends() {
+        let p = Positions::new("a\nb\n");
+        let lines: Vec<usize> = (0..6).map(|o| p.line_at(o)).collect();
+        assert_eq!(lines, [1, 1, 2, 2, 3, 3]);
+    }
+}

@@ -426,8 +426,20 @@ mod tests {
                 .contains("must come before <DefaultExperiment>"),
             "{r:?}"
         );
+        // A slot of several names names them; a slot of one needs no list.
         let r = admit_all(ScalarVariable, &["Real", "Integer"]);
-        assert!(r[1].as_ref().unwrap_err().contains("one too many"), "{r:?}");
+        assert!(
+            r[1].as_ref().unwrap_err().contains(
+                "<Integer> is one too many: only one of <Real>, <Integer>, <Boolean>, <String> \
+                 or <Enumeration> may stand here"
+            ),
+            "{r:?}"
+        );
+        let r = admit_all(Root, &["DefaultExperiment", "DefaultExperiment"]);
+        assert_eq!(
+            r[1],
+            Err("<DefaultExperiment> is one too many: only one may stand here".into()),
+        );
         let r = admit_all(ScalarVariable, &["Annotations"]);
         assert!(
             r[0].as_ref().unwrap_err().contains(

@@ -235,6 +235,13 @@ fn malformed_attributes_report_their_line() {
             69,
             "",
         ),
+        // The duplicate at the very start of its line.
+        (
+            "  author=\"ckcm project\"\n",
+            "  author=\"ckcm project\"\nauthor=\"again\"\n",
+            8,
+            "duplicated attribute",
+        ),
     ] {
         let err = ModelDescription::parse(&edited(from, to)).unwrap_err();
         assert!(matches!(*err.kind, MdErrorKind::Xml(_)), "{err:?}");
@@ -370,6 +377,43 @@ fn unreadable_numbers_name_the_attribute_line() {
         Some(mass_line + 2),
         "the line of the start attribute"
     );
+    // Only xs:double's spellings of the special values, not the others Rust would read.
+    for (text, value) in [
+        ("INF", f64::INFINITY),
+        ("-INF", f64::NEG_INFINITY),
+        ("NaN", f64::NAN),
+    ] {
+        let md = ModelDescription::parse(&edited(
+            "<Real unit=\"kg\" start=\"4.92\" min=\"0\"/>",
+            &format!("<Real unit=\"kg\" start=\"4.92\" min=\"0\" nominal=\"{text}\"/>"),
+        ))
+        .unwrap();
+        let nominal = match &md.variable_by_name("mass").unwrap().kind {
+            VariableKind::Real { nominal, .. } => nominal.unwrap(),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(nominal.to_bits(), value.to_bits(), "{text}");
+    }
+    for text in ["inf", "Infinity", "+INF", "nan", "NAN", "1.0f"] {
+        let err = ModelDescription::parse(&edited(
+            "<Real unit=\"kg\" start=\"4.92\" min=\"0\"/>",
+            &format!("<Real unit=\"kg\" start=\"{text}\" min=\"0\"/>"),
+        ))
+        .unwrap_err();
+        assert!(
+            err.to_string().contains(&format!(
+                "ScalarVariable 'mass': invalid start '{text}' (expected a real number)"
+            )),
+            "{err}"
+        );
+    }
+    // Also when the attribute starts its line.
+    let xml = edited(
+        "<Real unit=\"kg\" start=\"4.92\" min=\"0\"/>",
+        "<Real unit=\"kg\"\nstart=\"4,92\" min=\"0\"/>",
+    );
+    let err = ModelDescription::parse(&xml).unwrap_err();
+    assert_eq!(err.line, Some(mass_line + 2), "{err}");
 
     let err = ModelDescription::parse(&edited("valueReference=\"21\"", "valueReference=\"-21\""))
         .unwrap_err();
@@ -387,6 +431,23 @@ fn unreadable_numbers_name_the_attribute_line() {
             .contains("ScalarVariable 'learning': invalid start 'yes'"),
         "{err}"
     );
+
+    // Units and types are named once their name is known, as variables are.
+    for (from, to, named) in [
+        (
+            "<BaseUnit kg=\"1\" m=\"1\" s=\"-2\"/>",
+            "<BaseUnit kg=\"one\" m=\"1\" s=\"-2\"/>",
+            "line 19: Unit 'N': invalid kg 'one'",
+        ),
+        (
+            "<Real quantity=\"Force\" unit=\"N\"/>",
+            "<Real quantity=\"Force\" unit=\"N\" max=\"lots\"/>",
+            "line 28: SimpleType 'Force': invalid max 'lots'",
+        ),
+    ] {
+        let err = ModelDescription::parse(&edited(from, to)).unwrap_err();
+        assert!(err.to_string().starts_with(named), "{err}");
+    }
 }
 
 #[test]
@@ -397,4 +458,167 @@ fn variable_without_type_element_is_an_error() {
             .contains("ScalarVariable 'label': needs exactly one of"),
         "{err}"
     );
+}
+
+/// A description that uses every causality, variability, `initial` and `dependenciesKind`
+/// value, both interfaces, xs:double's infinities and bounds and units taken from declared
+/// types (none of which the realistic fixture has): each value is read as itself, the
+/// standard's causality/variability table accepts every combination used, and the lookups
+/// fall back on the declared type.
+const EVERY_KIND: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="EveryKind" guid="{every-kind}">
+  <ModelExchange modelIdentifier="EveryKindME" completedIntegratorStepNotNeeded="true"
+    canGetAndSetFMUstate="true"/>
+  <CoSimulation modelIdentifier="EveryKindCS"/>
+  <UnitDefinitions>
+    <Unit name="m"/>
+    <Unit name="mm"><BaseUnit m="1" factor="0.001"/></Unit>
+  </UnitDefinitions>
+  <TypeDefinitions>
+    <SimpleType name="Length"><Real unit="m" min="0.5" max="2"/></SimpleType>
+    <SimpleType name="Count"><Integer min="1" max="9"/></SimpleType>
+  </TypeDefinitions>
+  <ModelVariables>
+    <ScalarVariable name="time" valueReference="0" causality="independent" variability="continuous">
+      <Real/>
+    </ScalarVariable>
+    <ScalarVariable name="one" valueReference="1" causality="output" variability="constant">
+      <Real start="1"/>
+    </ScalarVariable>
+    <ScalarVariable name="guess" valueReference="2" causality="local" initial="approx">
+      <Real start="0"/>
+    </ScalarVariable>
+    <ScalarVariable name="length" valueReference="3" causality="parameter" variability="fixed">
+      <Real declaredType="Length" start="1"/>
+    </ScalarVariable>
+    <ScalarVariable name="count" valueReference="4" causality="parameter" variability="tunable">
+      <Integer declaredType="Count" start="3"/>
+    </ScalarVariable>
+    <ScalarVariable name="u" valueReference="5" causality="input" variability="discrete">
+      <Real start="0" min="-INF" max="INF"/>
+    </ScalarVariable>
+    <ScalarVariable name="y" valueReference="6" causality="output">
+      <Real declaredType="Length" min="0" unit="mm"/>
+    </ScalarVariable>
+    <ScalarVariable name="local_constant" valueReference="7" variability="constant">
+      <Real start="2"/>
+    </ScalarVariable>
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs>
+      <Unknown index="2" dependencies=""/>
+      <Unknown index="7" dependencies="6 6 6 6 6"
+        dependenciesKind="dependent constant fixed tunable discrete"/>
+    </Outputs>
+    <InitialUnknowns>
+      <Unknown index="7" dependencies="4"/>
+    </InitialUnknowns>
+  </ModelStructure>
+</fmiModelDescription>
+"#;
+
+#[test]
+fn every_kind_of_variable_and_dependency_reads_as_written() {
+    use fmi2_md::{DependencyKind as K, default_initial};
+    let md = ModelDescription::parse(EVERY_KIND).unwrap();
+    assert_eq!(md.validate(), vec![]);
+
+    let me = md.model_exchange.as_ref().unwrap();
+    assert_eq!(me.model_identifier, "EveryKindME");
+    assert!(me.completed_integrator_step_not_needed && me.can_get_and_set_fmu_state);
+    // The co-simulation interface is the one a master loads.
+    assert_eq!(md.model_identifier(), Some("EveryKindCS"));
+
+    let v = |name: &str| md.variable_by_name(name).unwrap();
+    let read = |name: &str| (v(name).causality, v(name).variability, v(name).initial);
+    assert_eq!(
+        read("time"),
+        (Causality::Independent, Variability::Continuous, None)
+    );
+    assert_eq!(
+        read("one"),
+        (
+            Causality::Output,
+            Variability::Constant,
+            Some(Initial::Exact)
+        )
+    );
+    assert_eq!(
+        read("guess"),
+        (
+            Causality::Local,
+            Variability::Continuous,
+            Some(Initial::Approx)
+        )
+    );
+    assert_eq!(
+        read("count"),
+        (
+            Causality::Parameter,
+            Variability::Tunable,
+            Some(Initial::Exact)
+        )
+    );
+    assert_eq!(read("u"), (Causality::Input, Variability::Discrete, None));
+    assert_eq!(
+        read("local_constant"),
+        (
+            Causality::Local,
+            Variability::Constant,
+            Some(Initial::Exact)
+        )
+    );
+
+    // Bounds: the variable's own, else its declared type's; xs:double's infinities.
+    assert_eq!(md.range_of(v("length")), (Some(0.5), Some(2.0)));
+    assert_eq!(md.range_of(v("count")), (Some(1.0), Some(9.0)));
+    assert_eq!(md.range_of(v("y")), (Some(0.0), Some(2.0)));
+    assert_eq!(
+        md.range_of(v("u")),
+        (Some(f64::NEG_INFINITY), Some(f64::INFINITY))
+    );
+    // Units: the variable's own, else its declared type's.
+    assert_eq!(md.unit_of(v("length")), Some("m"));
+    assert_eq!(md.unit_of(v("y")), Some("mm"));
+    assert_eq!(md.unit_of(v("time")), None);
+    assert_eq!(md.unit_of(v("count")), None);
+
+    let y = &md.model_structure.outputs[1];
+    assert_eq!(
+        y.dependencies_kind.as_deref(),
+        Some(&[K::Dependent, K::Constant, K::Fixed, K::Tunable, K::Discrete][..])
+    );
+
+    // The defaults of the standard's table (FMI 2.0, section 2.2.7: cases A, B and C give
+    // exact, calculated and calculated; D, E and the illegal combinations none).
+    use Causality as C;
+    use Variability as V;
+    let causalities = [
+        C::Parameter,
+        C::CalculatedParameter,
+        C::Input,
+        C::Output,
+        C::Local,
+        C::Independent,
+    ];
+    let (a, b, c) = (
+        Some(Initial::Exact),
+        Some(Initial::Calculated),
+        Some(Initial::Calculated),
+    );
+    for (variability, row) in [
+        (V::Constant, [None, None, None, a, a, None]),
+        (V::Fixed, [a, b, None, None, b, None]),
+        (V::Tunable, [a, b, None, None, b, None]),
+        (V::Discrete, [None, None, None, c, c, None]),
+        (V::Continuous, [None, None, None, c, c, None]),
+    ] {
+        for (causality, expected) in causalities.into_iter().zip(row) {
+            assert_eq!(
+                default_initial(causality, variability),
+                expected,
+                "{causality:?} {variability:?}"
+            );
+        }
+    }
 }

@@ -322,6 +322,47 @@ fn default_experiment_step_size_must_be_positive() {
     let p = problems(&[("stepSize=\"0.001\"", "stepSize=\"0\"")]);
     assert_eq!(p.len(), 1, "{p:#?}");
     find(&p, &["DefaultExperiment", "stepSize must be > 0"]);
+    for tolerance in ["0", "-1e-6", "INF"] {
+        let p = problems(&[(
+            "stepSize=\"0.001\"",
+            &format!("stepSize=\"0.001\" tolerance=\"{tolerance}\""),
+        )]);
+        assert_eq!(p.len(), 1, "{p:#?}");
+        find(&p, &["DefaultExperiment", "tolerance must be > 0"]);
+    }
+    assert_eq!(
+        problems(&[(
+            "stepSize=\"0.001\"",
+            "stepSize=\"0.001\" tolerance=\"1e-6\""
+        )]),
+        vec![]
+    );
+}
+
+/// The binary's symbols and file names are built from the modelIdentifier, so it must be a
+/// C identifier: a letter or underscore, then letters, digits and underscores.
+#[test]
+fn model_identifier_must_be_a_c_identifier() {
+    for good in ["Mini_Platform", "_x", "x1"] {
+        let p = problems(&[(
+            "modelIdentifier=\"MiniPlatform\"",
+            &format!("modelIdentifier=\"{good}\""),
+        )]);
+        assert_eq!(p, vec![], "{good}");
+    }
+    for bad in ["1x", "Mini-Platform", "Mini Platform", "Mini.Platform"] {
+        let p = problems(&[(
+            "modelIdentifier=\"MiniPlatform\"",
+            &format!("modelIdentifier=\"{bad}\""),
+        )]);
+        assert_eq!(p.len(), 1, "{p:#?}");
+        find(
+            &p,
+            &[&format!(
+                "modelIdentifier '{bad}' is not a valid C identifier"
+            )],
+        );
+    }
 }
 
 #[test]
@@ -422,9 +463,10 @@ fn order_and_counts_follow_the_schema() {
             "  <DefaultExperiment startTime=\"0\" stopTime=\"15\" stepSize=\"0.001\"/>\n",
             "",
         ),
+        // A refused element's attributes are not checked on top: `bogus` is not reported.
         (
             "  <UnitDefinitions>\n",
-            "  <DefaultExperiment startTime=\"0\" stopTime=\"15\" stepSize=\"0.001\"/>\n  <UnitDefinitions>\n",
+            "  <DefaultExperiment startTime=\"0\" stopTime=\"15\" stepSize=\"0.001\"/>\n  <UnitDefinitions bogus=\"1\">\n",
         ),
     ]);
     assert_eq!(p.len(), 1, "{p:#?}");
@@ -506,6 +548,12 @@ fn attributes_the_schema_does_not_define() {
     assert_eq!(root.line, Some(8));
     let real = find(&p, &["attribute 'variability' is not defined for <Real>"]);
     assert_eq!(real.line, Some(47));
+    // An attribute at the very start of its line, as some generators write them.
+    let p = problems(&[(
+        "  author=\"ckcm project\"\n",
+        "  author=\"ckcm project\"\ncopyrite=\"2026\"\n",
+    )]);
+    assert_eq!(find(&p, &["attribute 'copyrite'"]).line, Some(8));
     // What the schema defines passes, `copyright` and `license` among it.
     let p = problems(&[(
         "  author=\"ckcm project\"\n",
