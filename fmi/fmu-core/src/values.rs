@@ -534,4 +534,95 @@ mod tests {
         assert_eq!(e.message, "? = NaN is not finite");
         assert_eq!(v, before);
     }
+
+    /// The error names the Real with that value reference, not a variable of another type
+    /// that shares it, nor another Real.
+    #[test]
+    fn a_value_that_is_not_finite_is_named_by_its_real_variable() {
+        let spec = |name, value_reference, var_type| VarSpec {
+            name,
+            value_reference,
+            var_type,
+            ..SPEC
+        };
+        let variables = [
+            spec("n", 0, VarType::Integer),
+            spec("x", 0, VarType::Real),
+            spec("y", 1, VarType::Real),
+        ];
+        let mut v = Values::from_start(&[(1, VarType::Real, 0.0)]);
+        let e = v.set_finite_real(&variables, 0, f64::NAN).unwrap_err();
+        assert_eq!(e.message, "x = NaN is not finite");
+        let vrs = [1, 0];
+        let e = v
+            .set_finite_reals(&variables, &vrs, &batch(&vrs), &[1.0, f64::INFINITY])
+            .unwrap_err();
+        assert_eq!(e.message, "x = inf is not finite");
+    }
+
+    /// Two values that are not finite are still caught: the scan's bits must not cancel.
+    #[test]
+    fn several_values_that_are_not_finite_are_caught() {
+        for pair in [
+            [f64::NAN, f64::NAN],
+            [f64::INFINITY, f64::NEG_INFINITY],
+            [f64::NAN, f64::INFINITY],
+        ] {
+            assert!(!all_finite(&pair), "{pair:?}");
+            assert!(!all_finite(&[1.0, pair[0], 2.0, pair[1], 3.0]), "{pair:?}");
+        }
+    }
+
+    /// Booleans are stored by value reference, false until set, and kept by a saved state.
+    #[test]
+    fn booleans_are_stored_and_saved() {
+        let mut v = Values::from_start(&[(1, VarType::Boolean, 1.0), (2, VarType::Boolean, 0.0)]);
+        assert_eq!(
+            [v.boolean(0), v.boolean(1), v.boolean(2)],
+            [false, true, false]
+        );
+        v.set_boolean(2, true);
+        v.set_boolean(1, false);
+        v.set_boolean(9, true);
+        assert_eq!(
+            (0..11).map(|vr| v.boolean(vr)).collect::<Vec<_>>(),
+            [
+                false, false, true, false, false, false, false, false, false, true, false
+            ]
+        );
+        let mut bytes = Vec::new();
+        v.save(&mut ByteWriter(&mut bytes));
+        let mut restored = Values::default();
+        let mut input = ByteReader(&bytes);
+        restored.restore(&mut input).unwrap();
+        input.finish().unwrap();
+        assert_eq!(restored, v);
+    }
+
+    /// A saved state may hold up to 2^20 variables of each type; a count beyond is refused
+    /// before anything is allocated for it.
+    #[test]
+    fn a_saved_state_holds_at_most_a_million_variables() {
+        let limit: usize = 1 << 20;
+        let mut bytes = Vec::new();
+        let mut w = ByteWriter(&mut bytes);
+        w.u64(limit as u64);
+        bytes.resize(8 + limit * (8 + 4 + 1), 0);
+        let mut v = Values::default();
+        let mut input = ByteReader(&bytes);
+        v.restore(&mut input).unwrap();
+        input.finish().unwrap();
+        assert_eq!(v.real(limit as u32 - 1), 0.0);
+        for n in [limit as u64 + 1, u64::MAX] {
+            let mut bytes = Vec::new();
+            ByteWriter(&mut bytes).u64(n);
+            let e = Values::default()
+                .restore(&mut ByteReader(&bytes))
+                .unwrap_err();
+            assert_eq!(
+                e.message,
+                format!("implausible variable count {n} in saved state")
+            );
+        }
+    }
 }
