@@ -460,4 +460,27 @@ mod tests {
         };
         assert_eq!(source.kind(), io::ErrorKind::InvalidInput);
     }
+
+    /// A file named without a folder lies in the current one: its temporary sibling and the
+    /// folder synced after the rename are `.`, not the empty path, which opens nothing.
+    #[test]
+    fn a_bare_file_name_lies_in_the_current_folder() {
+        assert_eq!(parent_dir(Path::new("out.csv")), Path::new("."));
+        assert_eq!(parent_dir(Path::new("/out.csv")), Path::new("/"));
+        assert_eq!(parent_dir(Path::new("a/out.csv")), Path::new("a"));
+    }
+
+    /// Only a link is resolved: an existing file keeps the path as written, which is the
+    /// one errors name.
+    #[test]
+    fn an_existing_file_keeps_the_path_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        fs::create_dir(dir.path().join("sub")).unwrap();
+        fs::write(dir.path().join("x.csv"), "old").unwrap();
+        let written = dir.path().join("sub").join("..").join("x.csv");
+        let prepared = prepare_atomic(&written, |w| w.write_all(b"new")).unwrap();
+        assert_eq!(prepared.path, written);
+        prepared.commit().unwrap();
+        assert_eq!(fs::read_to_string(dir.path().join("x.csv")).unwrap(), "new");
+    }
 }
