@@ -512,6 +512,24 @@ mod tests {
         assert_eq!(text, fs::read(&path).unwrap());
     }
 
+    /// A format that does not read the rows itself writes them as their recording: the
+    /// text-column CSV without text columns is the plain CSV, byte for byte.
+    #[test]
+    fn rows_written_through_their_recording_are_the_plain_csv() {
+        let mut rows = RecordedRows::with_capacity(vec!["a".into(), "b[1]".into()], 3);
+        rows.push(0.0, &[1.5, -2.0]);
+        rows.push(0.001, &[1e-300, f64::INFINITY]);
+        let (mut plain, mut through) = (Vec::new(), Vec::new());
+        CsvExporter.write_rows(&rows, &mut plain).unwrap();
+        let text = CsvWithText::default();
+        text.write_rows(&rows, &mut through).unwrap();
+        assert_eq!(
+            String::from_utf8(through).unwrap(),
+            String::from_utf8(plain).unwrap()
+        );
+        assert_eq!(text.extension(), CsvExporter.extension());
+    }
+
     fn formatted(v: f64) -> String {
         Numbers::default().format(v).to_owned()
     }
