@@ -530,6 +530,37 @@ mod tests {
         assert_eq!(text.extension(), CsvExporter.extension());
     }
 
+    /// A text column replaces its numeric column, quoted where it must be; the others are
+    /// numbers as in the plain CSV. Text columns that do not fit the recording are refused.
+    #[test]
+    fn text_columns_replace_their_numbers_and_must_fit() {
+        let rec = Recording {
+            time: vec![0.0, 0.5],
+            names: vec!["x".into(), "label".into(), "y".into()],
+            columns: vec![vec![1.0, 2.5], vec![9.0, 9.0], vec![-0.25, 1e-300]],
+        };
+        let text = CsvWithText {
+            text: vec![(1, vec!["plain".into(), "a, \"quoted\" one".into()])],
+        };
+        let mut out = Vec::new();
+        text.write(&rec, &mut out).unwrap();
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "time,x,label,y\n0,1,plain,-0.25\n0.5,2.5,\"a, \"\"quoted\"\" one\",1e-300\n"
+        );
+        for (column, rows) in [(3, 2), (1, 1), (1, 3)] {
+            let bad = CsvWithText {
+                text: vec![(column, vec![String::new(); rows])],
+            };
+            let err = bad.write(&rec, &mut Vec::new()).unwrap_err();
+            assert_eq!(err.kind(), io::ErrorKind::InvalidData);
+            assert_eq!(
+                err.to_string(),
+                format!("text column {column} has {rows} rows for 3 columns of 2 rows")
+            );
+        }
+    }
+
     fn formatted(v: f64) -> String {
         Numbers::default().format(v).to_owned()
     }
