@@ -525,9 +525,15 @@ mod tests {
         text.write_rows(&rows, &mut through).unwrap();
         assert_eq!(
             String::from_utf8(through).unwrap(),
-            String::from_utf8(plain).unwrap()
+            String::from_utf8(plain.clone()).unwrap()
         );
         assert_eq!(text.extension(), CsvExporter.extension());
+        // The file a campaign writes holds those bytes, and reads back as the recording.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("trial.csv");
+        write_recorded_rows(&path, &rows, &CsvExporter).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), plain);
+        assert_eq!(read_recording_csv(&path).unwrap(), rows.to_recording());
     }
 
     /// A text column replaces its numeric column, quoted where it must be; the others are
