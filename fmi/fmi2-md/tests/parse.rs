@@ -460,11 +460,12 @@ fn variable_without_type_element_is_an_error() {
     );
 }
 
-/// A description that uses every causality, variability, `initial` and `dependenciesKind`
-/// value, both interfaces, xs:double's infinities and bounds and units taken from declared
-/// types (none of which the realistic fixture has): each value is read as itself, the
-/// standard's causality/variability table accepts every combination used, and the lookups
-/// fall back on the declared type.
+/// A description holding what the realistic fixture lacks: `local` and `independent`
+/// variables, constants, `initial="approx"`, the `dependenciesKind` values other than
+/// `dependent`, a ModelExchange interface beside the co-simulation one, xs:double's
+/// infinities, and bounds and units taken from declared types. Each value is read as
+/// itself, the standard's causality/variability table accepts every combination used, and
+/// the lookups fall back on the declared type.
 const EVERY_KIND: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="EveryKind" guid="{every-kind}">
   <ModelExchange modelIdentifier="EveryKindME" completedIntegratorStepNotNeeded="true"
