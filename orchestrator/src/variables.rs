@@ -323,6 +323,7 @@ mod tests {
     <ScalarVariable name="b" valueReference="5" causality="parameter" variability="fixed"><Boolean start="false"/></ScalarVariable>
     <ScalarVariable name="mode" valueReference="6" causality="parameter" variability="fixed"><Enumeration declaredType="Mode" start="1"/></ScalarVariable>
     <ScalarVariable name="y" valueReference="7" causality="output"><Real/></ScalarVariable>
+    <ScalarVariable name="t" valueReference="8" causality="independent" variability="continuous"><Real/></ScalarVariable>
   </ModelVariables>
   <ModelStructure><Outputs><Unknown index="7"/></Outputs></ModelStructure>
 </fmiModelDescription>"#;
@@ -392,7 +393,16 @@ mod tests {
         let (a, b) = both("mode", "3", "3");
         assert_eq!(a, b);
         assert!(a.unwrap_err().contains("takes one of: off (1), on (2)"));
-        assert!(convert(&md, var("a[2]"), Literal::Toml(&toml("\"x\""))).is_err());
+        // A quoted number is told it is quoted; other text that it is no number.
+        assert_eq!(
+            convert(&md, var("a[2]"), Literal::Toml(&toml("\"x\""))).unwrap_err(),
+            "'x' is not a finite number ('a[2]' is a Real)"
+        );
+        assert_eq!(
+            convert(&md, var("a[2]"), Literal::Toml(&toml("\" 0.5\""))).unwrap_err(),
+            "\" 0.5\" is quoted, so it is text, not a number: write it without quotes \
+             ('a[2]' is a Real)"
+        );
         assert!(convert(&md, var("a[2]"), Literal::Text("nan")).is_err());
     }
 
@@ -414,6 +424,8 @@ mod tests {
             e.contains("'y' is an output and computed by the FMU"),
             "{e}"
         );
+        let e = settable(md.variable_by_name("t").unwrap()).unwrap_err();
+        assert_eq!(e, "'t' is the independent variable (time)");
         let e = check_value(&md, md.variable_by_name("a[2]").unwrap(), &Value::Real(2.0));
         assert!(e.unwrap_err().contains("above its declared max = 1"));
     }
