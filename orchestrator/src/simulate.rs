@@ -255,6 +255,9 @@ fn parse_assignment(md: &ModelDescription, text: &str) -> Result<Vec<Assignment>
 fn auto_interval(span: f64) -> f64 {
     // numpy rounds halves to even.
     let h = 10f64.powf(span.log10().round_ties_even() - 3.0);
+    // The rounding keeps span / 10^round(log10 span) within [10^−0.5, 10^0.5], so n lies in
+    // [316, 3163]: fmpy's two arms for n ≤ 200 and n ≤ 250 (÷5, ÷4) cannot be reached and
+    // are left out.
     let n = span / h;
     if n >= 2500.0 {
         h * 5.0
@@ -262,10 +265,6 @@ fn auto_interval(span: f64) -> f64 {
         h * 4.0
     } else if n >= 1000.0 {
         h * 2.0
-    } else if n <= 200.0 {
-        h / 5.0
-    } else if n <= 250.0 {
-        h / 4.0
     } else if n <= 500.0 {
         h / 2.0
     } else {
@@ -894,12 +893,38 @@ mod tests {
     #[test]
     fn auto_interval_follows_fmpy() {
         // fmpy 0.3.32 util.auto_interval: h = 10^(round(log10 span) − 3), then scaled so the
-        // span holds 500 to 1000 steps. The same five values come out of fmpy itself.
+        // span holds 500 to 1000 steps. The same eight values come out of fmpy itself.
         assert_eq!(auto_interval(1.0), 0.002); // 1000 steps of 1 ms → ×2
         assert_eq!(auto_interval(2.0), 0.004); // 2000 → ×4
         assert_eq!(auto_interval(10.0), 0.02); // 1000 of 10 ms → ×2
         assert_eq!(auto_interval(0.3), 0.0005); // h = 1e-4 (log10 0.3 → −1), 3000 → ×5
         assert_eq!(auto_interval(5.0), 0.005); // h = 0.01 (log10 5 → 1), 500 → ÷2
+        assert_eq!(auto_interval(2.5), 0.005); // 2500 → ×5
+        assert_eq!(auto_interval(0.7), 0.001); // h = 1e-3 (log10 0.7 → 0), 700 kept
+        assert_eq!(auto_interval(0.4), 0.0005); // h = 1e-3, 400 → ÷2
+        // Every span from 1 µs to 1e6 s, eight per decade and the decades' half-way points
+        // (where the rounding turns), holds 500 to 1000 steps of a power of ten times 5, 4,
+        // 2, 1 or 1/2.
+        for k in -48..=48 {
+            for span in [
+                10f64.powf(f64::from(k) / 8.0),
+                10f64.powf(f64::from(k) / 8.0 + 0.5),
+            ] {
+                let step = auto_interval(span);
+                let n = span / step;
+                assert!(
+                    (500.0 - 1e-9..=1000.0 + 1e-9).contains(&n),
+                    "{span}: {n} steps"
+                );
+                let mantissa = step / 10f64.powf(step.log10().floor());
+                assert!(
+                    [1.0, 2.0, 4.0, 5.0]
+                        .iter()
+                        .any(|m| (mantissa - m).abs() < 1e-9),
+                    "{span}: step {step}"
+                );
+            }
+        }
     }
 
     #[test]
