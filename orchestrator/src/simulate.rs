@@ -870,6 +870,32 @@ mod tests {
         );
     }
 
+    /// A line's length counts from its newline, wherever a read ends: reads of 4096 bytes,
+    /// the first holding a newline at byte 3000, then a last line (no newline ends it) of
+    /// exactly the limit (read whole) or one byte more (refused).
+    #[test]
+    fn short_lines_count_from_a_newline_inside_a_read() {
+        use std::io::Read;
+        struct Chunks(io::Cursor<Vec<u8>>);
+        impl io::Read for Chunks {
+            fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+                let n = buf.len().min(4096);
+                self.0.read(&mut buf[..n])
+            }
+        }
+        let read = |line: usize| {
+            let mut bytes = vec![b'1'; 3000];
+            bytes.push(b'\n');
+            bytes.extend(std::iter::repeat_n(b'2', line));
+            let mut out = Vec::new();
+            ShortLines::new(Chunks(io::Cursor::new(bytes)))
+                .read_to_end(&mut out)
+                .map(|_| out.len())
+        };
+        assert_eq!(read(MAX_INPUT_LINE).unwrap(), 3001 + MAX_INPUT_LINE);
+        assert!(read(MAX_INPUT_LINE + 1).is_err());
+    }
+
     #[test]
     fn grid_is_computed_not_accumulated() {
         let g = Grid::new(0.0, 1.0, 0.1, false).unwrap();
