@@ -1019,6 +1019,30 @@ mod tests {
         std::fs::read_to_string(path).unwrap()
     }
 
+    /// Recorded variables fall into one group per base type, each with its columns; the
+    /// String column's values are handed over once, with their column.
+    #[test]
+    fn the_recorder_groups_by_type_and_hands_over_text_once() {
+        let md = string_md();
+        let names = ["x", "label", "steps", "moving_up", "v"].map(String::from);
+        let mut recorder = Recorder::new(&md, &names).unwrap();
+        assert_eq!(recorder.names, names);
+        assert_eq!(recorder.reals.columns, [0, 4]);
+        assert_eq!(recorder.reals.vrs, [1, 2]);
+        assert_eq!(recorder.integers.columns, [2]);
+        assert_eq!(recorder.booleans.columns, [3]);
+        recorder.strings[0].2 = vec!["a".into(), "b".into()];
+        assert_eq!(recorder.strings[0].1, 1);
+        assert_eq!(
+            recorder.take_text(),
+            vec![(1, vec!["a".to_owned(), "b".to_owned()])]
+        );
+        assert_eq!(recorder.take_text(), vec![(1, Vec::<String>::new())]);
+        // Without --record: every output (the String input is none), in the file's order.
+        let all = Recorder::new(&md, &[]).unwrap();
+        assert_eq!(all.names, ["x", "v", "steps", "moving_up"]);
+    }
+
     #[test]
     fn string_inputs_are_read_from_the_file() {
         let md = string_md();
